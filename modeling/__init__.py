@@ -1,0 +1,66 @@
+"""Pure perception and modeling core after Miura, ICRA-94.
+
+Segment-based stereo with uncertainty, floor projection, obstacles and free spaces, critical
+regions, occlusion and the enumeration of possible situations. Depends on numpy, scipy, shapely,
+networkx and (for segment extraction only) OpenCV; never on gymnasium, pymunk, pyrender or torch.
+
+Public names are imported lazily so that ``import modeling`` stays cheap.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+_EXPORTS: dict[str, str] = {
+    "StereoRig": "modeling.rig",
+    "HeadPose": "modeling.rig",
+    "FloorSegment": "modeling.observation",
+    "AmbiguousSegment": "modeling.observation",
+    "FloorObservation": "modeling.observation",
+    "ImageSegments": "modeling.segments",
+    "extract_segments": "modeling.segments",
+    "StereoMatches": "modeling.matching",
+    "match_segments": "modeling.matching",
+    "triangulate_to_floor": "modeling.triangulation",
+    "gap_passable_probability": "modeling.gaps",
+    "Relation": "modeling.gaps",
+    "classify_gap": "modeling.gaps",
+    "build_model": "modeling.model",
+    "EnvironmentModel": "modeling.model",
+    "Situation": "modeling.model",
+    "Obstacle": "modeling.model",
+    "CriticalRegion": "modeling.model",
+    "model_from_stereo": "modeling.pipeline",
+}
+
+__all__ = sorted(_EXPORTS)
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
+    from modeling.gaps import Relation, classify_gap, gap_passable_probability
+    from modeling.matching import StereoMatches, match_segments
+    from modeling.model import (
+        CriticalRegion,
+        EnvironmentModel,
+        Obstacle,
+        Situation,
+        build_model,
+    )
+    from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
+    from modeling.pipeline import model_from_stereo
+    from modeling.rig import HeadPose, StereoRig
+    from modeling.segments import ImageSegments, extract_segments
+    from modeling.triangulation import triangulate_to_floor
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'modeling' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))

@@ -1,0 +1,146 @@
+"""Floor-level observations: 2D segments with uncertain endpoints (paper sections 2, 3.2, 3.3).
+
+All coordinates are in the world frame, metres; covariances in m^2.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from modeling._validation import FloatArray, covariance, finite_array, positive, probabilities
+
+__all__ = ["AmbiguousSegment", "FloorObservation", "FloorSegment"]
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class FloorSegment:
+    """A 3D segment projected onto the floor, each endpoint a 2D normal.
+
+    Attributes:
+        endpoints: (2, 2) means of the two endpoints, world frame, metres.
+        cov: (2, 2, 2) covariance of each endpoint, m^2 (symmetric positive definite).
+        height_m: (2,) heights of the 3D endpoints above the floor before projection (informative).
+        source: Free-form provenance, e.g. the left-image segment index (``-1`` if synthetic).
+    """
+
+    endpoints: FloatArray
+    cov: FloatArray
+    height_m: FloatArray = field(default_factory=lambda: np.zeros(2))
+    source: int = -1
+
+    def __post_init__(self) -> None:
+        ends = finite_array(self.endpoints, "endpoints", (2, 2))
+        cov = covariance(self.cov, "cov")
+        if cov.shape != (2, 2, 2):
+            raise ValueError(f"cov must have shape (2, 2, 2), got {cov.shape}")
+        heights = finite_array(self.height_m, "height_m", (2,))
+        for name, arr in (("endpoints", ends), ("cov", cov), ("height_m", heights)):
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+
+    @property
+    def length_m(self) -> float:
+        """Distance between the endpoint means, metres."""
+        return float(np.linalg.norm(self.endpoints[1] - self.endpoints[0]))
+
+    @property
+    def midpoint(self) -> FloatArray:
+        """(2,) mean of the two endpoint means."""
+        return self.endpoints.mean(axis=0)
+
+    def transformed(self, R: FloatArray, t: FloatArray) -> FloorSegment:
+        """This segment under the rigid motion ``p -> R p + t`` (R a 2x2 rotation)."""
+        return FloorSegment(
+            endpoints=self.endpoints @ R.T + t,
+            cov=R @ self.cov @ R.T,
+            height_m=self.height_m,
+            source=self.source,
+        )
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class AmbiguousSegment:
+    """One image segment with several possible matches (section 3.3).
+
+    Attributes:
+        candidates: The possible floor segments, one per kept match.
+        probabilities: Their probabilities (Eq. 1), same length, summing to 1.
+    """
+
+    candidates: tuple[FloorSegment, ...]
+    probabilities: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        cands = tuple(self.candidates)
+        if len(cands) < 2:
+            raise ValueError(f"candidates must hold at least 2 FloorSegments, got {len(cands)}")
+        if not all(isinstance(c, FloorSegment) for c in cands):
+            raise ValueError("candidates must all be FloorSegment instances")
+        probs = probabilities(self.probabilities, "probabilities")
+        if probs.shape[0] != len(cands):
+            raise ValueError(
+                f"probabilities has {probs.shape[0]} entries for {len(cands)} candidates"
+            )
+        object.__setattr__(self, "candidates", cands)
+        object.__setattr__(self, "probabilities", tuple(float(p) for p in probs))
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class FloorObservation:
+    """Everything one stereo observation says about the floor.
+
+    Attributes:
+        segments: Unambiguous floor segments.
+        ambiguous: Ambiguous segments, each with its candidates and probabilities.
+        viewpoint: (3,) ``(x_m, y_m, heading_rad)`` of the left optical centre, world frame.
+        fov_rad: Horizontal field of view, radians.
+        max_range_m: Range beyond which nothing is trusted, metres.
+    """
+
+    segments: tuple[FloorSegment, ...] = ()
+    ambiguous: tuple[AmbiguousSegment, ...] = ()
+    viewpoint: FloatArray = field(default_factory=lambda: np.zeros(3))
+    fov_rad: float = math.radians(64.0)
+    max_range_m: float = 8.0
+
+    def __post_init__(self) -> None:
+        segs = tuple(self.segments)
+        if not all(isinstance(s, FloorSegment) for s in segs):
+            raise ValueError("segments must all be FloorSegment instances")
+        amb = tuple(self.ambiguous)
+        if not all(isinstance(a, AmbiguousSegment) for a in amb):
+            raise ValueError("ambiguous must all be AmbiguousSegment instances")
+        vp = finite_array(self.viewpoint, "viewpoint", (3,))
+        vp.setflags(write=False)
+        fov = positive(self.fov_rad, "fov_rad")
+        if fov >= 2 * math.pi:
+            raise ValueError(f"fov_rad must be below 2*pi, got {fov}")
+        object.__setattr__(self, "segments", segs)
+        object.__setattr__(self, "ambiguous", amb)
+        object.__setattr__(self, "viewpoint", vp)
+        object.__setattr__(self, "fov_rad", fov)
+        object.__setattr__(self, "max_range_m", positive(self.max_range_m, "max_range_m"))
+
+    def transformed(self, angle_rad: float, translation: FloatArray) -> FloorObservation:
+        """The whole observation rotated by ``angle_rad`` about the origin, then translated."""
+        c, s = math.cos(angle_rad), math.sin(angle_rad)
+        R = np.array([[c, -s], [s, c]])
+        t = np.asarray(translation, dtype=np.float64)
+        vp = self.viewpoint
+        new_xy = R @ vp[:2] + t
+        return FloorObservation(
+            segments=tuple(seg.transformed(R, t) for seg in self.segments),
+            ambiguous=tuple(
+                AmbiguousSegment(
+                    candidates=tuple(c_.transformed(R, t) for c_ in a.candidates),
+                    probabilities=a.probabilities,
+                )
+                for a in self.ambiguous
+            ),
+            viewpoint=np.array([new_xy[0], new_xy[1], vp[2] + angle_rad]),
+            fov_rad=self.fov_rad,
+            max_range_m=self.max_range_m,
+        )
