@@ -34,7 +34,27 @@ _EXPORTS: dict[str, str] = {
     "model_from_stereo": "modeling.pipeline",
 }
 
-__all__ = sorted(_EXPORTS)
+__all__ = [
+    "AmbiguousSegment",
+    "CriticalRegion",
+    "EnvironmentModel",
+    "FloorObservation",
+    "FloorSegment",
+    "HeadPose",
+    "ImageSegments",
+    "Obstacle",
+    "Relation",
+    "Situation",
+    "StereoMatches",
+    "StereoRig",
+    "build_model",
+    "classify_gap",
+    "extract_segments",
+    "gap_passable_probability",
+    "match_segments",
+    "model_from_stereo",
+    "triangulate_to_floor",
+]
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from modeling.gaps import Relation, classify_gap, gap_passable_probability

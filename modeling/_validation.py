@@ -24,7 +24,9 @@ def finite_array(value: ArrayLike, name: str, shape: tuple[int | None, ...]) -> 
     return arr
 
 
-def covariance(value: ArrayLike, name: str, *, rtol: float = 1e-6, atol: float = 1e-12) -> FloatArray:
+def covariance(
+    value: ArrayLike, name: str, *, rtol: float = 1e-6, atol: float = 1e-12
+) -> FloatArray:
     """A symmetric positive-definite 2x2 (or stack of (..., 2, 2)) covariance."""
     arr = np.asarray(value, dtype=np.float64)
     if arr.ndim < 2 or arr.shape[-2:] != (2, 2):

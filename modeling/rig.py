@@ -8,7 +8,8 @@ Frames (see ARCHITECTURE.md):
 
 The head is level (optical axes parallel to the floor) and the pair is rectified: the right camera
 sits ``baseline_m`` to the right of the left one, with the same orientation and intrinsics, so a
-world point appears on the same row in both images and its disparity is ``focal_px * baseline_m / Z``.
+world point appears on the same row in both images and its disparity is
+``focal_px * baseline_m / Z``.
 """
 
 from __future__ import annotations
@@ -67,7 +68,9 @@ class StereoRig:
             raise ValueError(f"height_px must be an integer >= 8, got {self.height_px!r}")
         for name in ("focal_px", "baseline_m", "sigma_px", "min_depth_m", "max_depth_m"):
             value = getattr(self, name)
-            if not (isinstance(value, int | float | np.floating) and math.isfinite(value) and value > 0):
+            if not (
+                isinstance(value, int | float | np.floating) and math.isfinite(value) and value > 0
+            ):
                 raise ValueError(f"{name} must be a positive finite number, got {value!r}")
         if self.max_depth_m <= self.min_depth_m:
             raise ValueError(
@@ -79,9 +82,14 @@ class StereoRig:
             object.__setattr__(self, "cy_px", (self.height_px - 1) / 2.0)
         assert self.cx_px is not None and self.cy_px is not None
         if not (math.isfinite(self.cx_px) and -0.5 <= self.cx_px <= self.width_px - 0.5):
-            raise ValueError(f"cx_px must lie inside the image [-0.5, {self.width_px - 0.5}], got {self.cx_px!r}")
+            raise ValueError(
+                f"cx_px must lie inside the image [-0.5, {self.width_px - 0.5}], got {self.cx_px!r}"
+            )
         if not (math.isfinite(self.cy_px) and -0.5 <= self.cy_px <= self.height_px - 0.5):
-            raise ValueError(f"cy_px must lie inside the image [-0.5, {self.height_px - 0.5}], got {self.cy_px!r}")
+            raise ValueError(
+                f"cy_px must lie inside the image [-0.5, {self.height_px - 0.5}], "
+                f"got {self.cy_px!r}"
+            )
 
     # ------------------------------------------------------------------ derived values
     @classmethod
@@ -220,7 +228,7 @@ class HeadPose:
 
     @property
     def R_cam2world(self) -> FloatArray:
-        """3x3 rotation whose columns are the camera x (right), y (down), z (forward) in the world."""
+        """3x3 rotation whose columns are the camera x (right), y (down), z (forward), world."""
         c, s = math.cos(self.heading_rad), math.sin(self.heading_rad)
         right = [s, -c, 0.0]
         down = [0.0, 0.0, -1.0]
