@@ -1,0 +1,128 @@
+"""The pymunk world: motion, collisions without tunnelling, the panning stereo head."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from stereo_nav_env.scenes import Scene, generate_scene, make_obstacle, oriented_rect
+from stereo_nav_env.world import World, WorldConfig
+
+
+def _scene(*obstacles, start=(1.0, 2.0, 0.0)) -> Scene:
+    return Scene(name="t", bounds=(0, 0, 6, 4), obstacles=obstacles, start=start, goal=(5.5, 2.0))
+
+
+def test_free_motion_follows_the_commands() -> None:
+    world = World(_scene())
+    for _ in range(10):
+        result = world.step(0.5, 0.0, 0.0)
+        assert not result.collided
+        assert result.distance_m == pytest.approx(0.05)
+    s = world.state
+    assert (s.x_m, s.y_m) == pytest.approx((1.5, 2.0))
+    world.step(9.0, 100.0, 0.0)  # clipped to 0.5 m/s and pi/2 rad/s
+    assert world.state.heading_rad == pytest.approx(math.pi / 2 * 0.1)
+    assert math.hypot(world.state.x_m - 1.5, world.state.y_m - 2.0) == pytest.approx(0.05, rel=0.01)
+
+
+def test_turning_in_place_does_not_move() -> None:
+    world = World(_scene())
+    for _ in range(10):
+        world.step(0.0, -1.0, 0.0)
+    s = world.state
+    assert (s.x_m, s.y_m) == pytest.approx((1.0, 2.0), abs=1e-9)
+    assert s.heading_rad == pytest.approx(-1.0)
+
+
+@pytest.mark.parametrize("heading", [0.0, 0.4])
+def test_no_tunnelling_through_a_thin_wall_at_top_speed(heading: float) -> None:
+    wall = make_obstacle("wall", oriented_rect([3.0, 2.0], 0.02, 3.8))  # 2 cm thick, x in 2.99-3.01
+    world = World(_scene(wall, start=(1.0, 1.0, heading)))
+    r = world.config.robot_radius_m
+    collided = []
+    for _ in range(120):
+        collided.append(world.step(0.5, 0.0, 0.0).collided)
+        assert world.state.x_m <= 2.99 - r + 0.006  # at most one substep (5 mm) of overlap
+    assert world.state.x_m > 2.99 - r - 0.01  # it did reach the wall
+    first = collided.index(True)
+    assert not any(collided[:first]) and all(collided[first:])
+    assert world.in_collision()
+
+
+def test_collision_with_a_concave_footprint() -> None:
+    ell = make_obstacle("box", [[3, 1], [4, 1], [4, 3], [3.5, 3], [3.5, 1.5], [3, 1.5]])
+    world = World(_scene(ell, start=(3.75, 0.5, math.pi / 2)))
+    for _ in range(60):
+        world.step(0.5, 0.0, 0.0)
+    assert world.state.y_m <= 1.0 - 0.25 + 0.006
+
+
+def test_reset_forgets_contacts() -> None:
+    wall = make_obstacle("wall", oriented_rect([3.0, 2.0], 0.1, 3.8))
+    world = World(_scene(wall))
+    for _ in range(60):
+        world.step(0.5, 0.0, 0.0)
+    world.reset()
+    for _ in range(5):
+        world.step(0.0, 1.0, 0.0)
+    assert (world.state.x_m, world.state.y_m) == pytest.approx((1.0, 2.0), abs=1e-12)
+
+
+def test_head_pans_at_a_limited_rate_within_limits() -> None:
+    world = World(_scene())
+    world.step(0.0, 0.0, math.pi)  # target beyond the limit: clipped to 90 deg
+    assert world.state.pan_rad == pytest.approx(math.radians(9.0))
+    for _ in range(20):
+        world.step(0.0, 0.0, math.pi)
+    assert world.state.pan_rad == pytest.approx(math.pi / 2)
+    world.step(0.0, 0.0, math.pi / 2 - 0.01)
+    assert world.state.pan_rad == pytest.approx(math.pi / 2 - 0.01)
+
+
+def test_head_pose_is_the_left_optical_centre() -> None:
+    world = World(_scene(start=(1.0, 2.0, 0.3)))
+    for _ in range(5):
+        world.step(0.0, 0.0, 0.5)
+    s = world.state
+    pose = world.head_pose(0.12)
+    gaze = 0.3 + 0.5
+    assert pose.heading_rad == pytest.approx(gaze)
+    assert pose.height_m == 0.8
+    left = np.array([pose.x_m, pose.y_m])
+    centre = np.array([s.x_m, s.y_m])
+    np.testing.assert_allclose(left - centre, 0.06 * np.array([-math.sin(gaze), math.cos(gaze)]))
+    right = pose.right_camera_position(__import__("modeling").StereoRig())[:2]
+    np.testing.assert_allclose((left + right) / 2, centre, atol=1e-12)  # head centred on the robot
+
+
+def test_generated_scene_start_is_collision_free() -> None:
+    for family in ("room", "corridor"):
+        world = World(generate_scene(1, family=family))
+        assert not world.in_collision()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"robot_width_m": 0.0}, "robot_width_m"),
+        ({"max_speed_m_s": -1.0}, "max_speed_m_s"),
+        ({"substeps": 0}, "substeps"),
+        ({"substeps": 1, "robot_width_m": 0.3}, "substeps"),  # 5 cm per substep could tunnel
+        ({"pan_limit_rad": 4.0}, "pan_limit_rad"),
+        ({"head_height_m": 1.5}, "head_height_m"),
+    ],
+)
+def test_invalid_config_names_the_field(kwargs: dict, name: str) -> None:
+    with pytest.raises(ValueError, match=name):
+        WorldConfig(**kwargs)
+
+
+def test_invalid_commands_are_named() -> None:
+    world = World(_scene())
+    with pytest.raises(ValueError, match="turn_rate_rad_s"):
+        world.step(0.1, float("nan"), 0.0)
+    with pytest.raises(ValueError, match="scene"):
+        World("not a scene")  # type: ignore[arg-type]
