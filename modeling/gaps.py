@@ -1,0 +1,463 @@
+"""Passability of the gap between two uncertain points (paper section 2, Fig. 3).
+
+Two floor points ``a ~ N(mean_a, cov_a)`` and ``b ~ N(mean_b, cov_b)``, independent, world frame,
+metres. Their difference ``d = b - a ~ N(mu, S)`` with ``mu = mean_b - mean_a`` and
+``S = cov_a + cov_b``. The robot (a disc of diameter ``width_m``) passes between them when
+``||d|| > width_m``; this module computes that probability EXACTLY, not by linearising the distance
+along the line between the means (which, for a sideways gap of 0.55 m with 0.3 m depth sigma and a
+0.6 m robot, says 0.04 where the truth is about 0.60).
+
+Method. In the eigenbasis of ``S`` the two coordinates are independent normals: ``u`` along the
+minor axis (standard deviation ``s_u``) and ``v`` along the major axis (``s_v >= s_u``). Then
+
+    P(||d|| <= w) = integral over u in [-w, w] of
+                    phi_u(u) * [Phi((h - m_v) / s_v) - Phi((-h - m_v) / s_v)] du
+
+with ``h = sqrt(w^2 - u^2)``. Substituting ``u = w sin(theta)`` removes the square-root
+singularity at ``u = +-w`` (``h = w cos(theta)``, ``du = w cos(theta) dtheta``). The outer density
+is the narrow one, so the integration window is cut to ``m_u +- 8.5 s_u`` (outside it the mass is
+below 1e-16), and the window is split at the steps of the inner term (``w cos(theta) = |m_v|``)
+and around the peak of the outer density. The scalar function integrates adaptively with
+:func:`scipy.integrate.quad`. The batch function, vectorised over pairs, uses two rules: for
+*smooth* pairs, whose window lies well inside ``(-w, w)`` and whose inner term changes slowly across
+it (the common stereo case: a narrow lateral and a wide depth uncertainty), a 12-node
+Gauss-Hermite rule in ``u`` (error below 1e-9); for the others, 16-node Gauss-Legendre panels
+over the breakpoints above in ``tau = tan(theta / 2)`` (rational, no trigonometric calls). Both
+agree with the adaptive result to better than 1e-4 (checked by the tests). Pairs whose mean is far
+outside or inside the disc (Gaussian tail bounds, see ``_p_inside_batch``) are answered without
+integration: error below 1e-15 in the scalar function, below 4.1e-5 in the batch one.
+"""
+
+from __future__ import annotations
+
+import functools
+import itertools
+import math
+from enum import IntEnum
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy import integrate, special
+
+from modeling._validation import FloatArray, covariance, finite_array, positive
+
+__all__ = [
+    "Relation",
+    "classify_gap",
+    "classify_gaps",
+    "gap_passable_probability",
+    "gap_passable_probability_batch",
+    "gap_width_moments",
+]
+
+_K_SIGMA = 8.5  # integration window, in standard deviations of the minor axis (tail < 1e-15)
+_K_SCREEN_EXACT = 8.5  # scalar function: answer 0 or 1 beyond this (error < 1e-15)
+_K_SCREEN_BATCH = 4.5  # batch function: answer 0 or 1 beyond this (error < exp(-10.1) < 4.1e-5)
+_GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(16)
+_NODE_BLOCK = 4096  # quadrature nodes per block of vectorised evaluation (32 KiB per array)
+_PANEL_BLOCK = _NODE_BLOCK // 16  # panels per block of the batch quadrature
+_GH_NODES, _GH_WEIGHTS = np.polynomial.hermite_e.hermegauss(12)  # nodes within +-5.5
+_GH_WEIGHTS = _GH_WEIGHTS / _GH_WEIGHTS.sum()
+_GH_MAX_REACH = 0.95  # smooth pairs: |m_u| + _K_SIGMA s_u <= this fraction of the width
+_GH_MAX_SLOPE = 1.0  # ... and s_u |u| / (h s_v) <= this over the window
+
+
+class Relation(IntEnum):
+    """Relation between two uncertain points for a robot of a given width (Fig. 3)."""
+
+    PASSABLE = 0
+    IMPASSABLE = 1
+    UNDECIDED = 2
+
+
+def _check_eps(eps: float) -> float:
+    e = positive(eps, "eps")
+    if e >= 0.5:
+        raise ValueError(f"eps must be in (0, 0.5), got {eps!r}")
+    return e
+
+
+def classify_gap(p_passable: float, eps: float) -> Relation:
+    """Classify a gap from its passable probability.
+
+    Args:
+        p_passable: Probability that the gap exceeds the robot width, in [0, 1].
+        eps: Tolerance in (0, 0.5): passable if ``p > 1 - eps``, impassable if ``p < eps``.
+
+    Returns:
+        The :class:`Relation`.
+    """
+    e = _check_eps(eps)
+    p = float(p_passable)
+    if not (math.isfinite(p) and 0.0 <= p <= 1.0):
+        raise ValueError(f"p_passable must be a probability in [0, 1], got {p_passable!r}")
+    if p > 1.0 - e:
+        return Relation.PASSABLE
+    if p < e:
+        return Relation.IMPASSABLE
+    return Relation.UNDECIDED
+
+
+def classify_gaps(p_passable: ArrayLike, eps: float) -> np.ndarray:
+    """Vectorised :func:`classify_gap`: (m,) probabilities -> (m,) int8 :class:`Relation` codes."""
+    e = _check_eps(eps)
+    p = np.asarray(p_passable, dtype=np.float64)
+    out = np.full(p.shape, int(Relation.UNDECIDED), dtype=np.int8)
+    out[p > 1.0 - e] = int(Relation.PASSABLE)
+    out[p < e] = int(Relation.IMPASSABLE)
+    return out
+
+
+# ---------------------------------------------------------------------------------- internals
+def _eigen_frame(
+    mu: FloatArray, S: FloatArray, w: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Mean and standard deviation along the minor (u) and major (v) axes of each ``S``.
+
+    Args:
+        mu: (m, 2) mean differences.
+        S: (m, 2, 2) covariances of the difference (symmetric positive semi-definite).
+        w: (m,) widths (for the floor on the standard deviations).
+
+    Returns:
+        ``(m_u, s_u, m_v, s_v)``, each (m,).
+    """
+    a, b, d = S[:, 0, 0], S[:, 0, 1], S[:, 1, 1]
+    half_tr = 0.5 * (a + d)
+    r = np.hypot(0.5 * (a - d), b)
+    l_major = half_tr + r
+    l_minor = np.maximum(half_tr - r, 0.0)
+    phi = 0.5 * np.arctan2(2.0 * b, a - d)  # direction of the major axis
+    c, s = np.cos(phi), np.sin(phi)
+    m_v = c * mu[:, 0] + s * mu[:, 1]
+    m_u = -s * mu[:, 0] + c * mu[:, 1]
+    scale = w + np.hypot(mu[:, 0], mu[:, 1]) + np.sqrt(l_major)
+    floor = 1e-9 * scale + 1e-300
+    s_v = np.maximum(np.sqrt(l_major), floor)
+    s_u = np.maximum(np.sqrt(l_minor), floor)
+    return m_u, s_u, m_v, s_v
+
+
+def _windows(
+    m_u: FloatArray, s_u: FloatArray, m_v: FloatArray, s_v: FloatArray, w: FloatArray
+) -> tuple[FloatArray, FloatArray, np.ndarray]:
+    """Sorted breakpoints (m, 7) in theta and a mask of pairs with a non-empty window."""
+    lo = np.maximum(-w, m_u - _K_SIGMA * s_u)
+    hi = np.minimum(w, m_u + _K_SIGMA * s_u)
+    valid = hi > lo
+    t_lo = np.arcsin(np.clip(lo / w, -1.0, 1.0))
+    t_hi = np.arcsin(np.clip(hi / w, -1.0, 1.0))
+    step = np.arccos(np.clip(np.abs(m_v) / w, 0.0, 1.0))
+    peak = np.arcsin(np.clip(m_u / w, -1.0, 1.0))
+    near_lo = np.arcsin(np.clip((m_u - 2.0 * s_u) / w, -1.0, 1.0))
+    near_hi = np.arcsin(np.clip((m_u + 2.0 * s_u) / w, -1.0, 1.0))
+    inner = np.stack([-step, step, peak, near_lo, near_hi], axis=1)
+    inner = np.clip(inner, t_lo[:, None], t_hi[:, None])
+    bps = np.sort(np.concatenate([t_lo[:, None], inner, t_hi[:, None]], axis=1), axis=1)
+    return bps, t_lo, valid
+
+
+def _integrand(
+    theta: FloatArray,
+    m_u: FloatArray,
+    s_u: FloatArray,
+    m_v: FloatArray,
+    s_v: FloatArray,
+    w: FloatArray,
+) -> FloatArray:
+    """Density of P(||d|| <= w) in theta (broadcasting)."""
+    st, ct = np.sin(theta), np.cos(theta)
+    z = (w * st - m_u) / s_u
+    h = w * np.maximum(ct, 0.0)
+    dens = np.exp(-0.5 * z * z) / (math.sqrt(2.0 * math.pi) * s_u) * h
+    inner = special.ndtr((h - m_v) / s_v) - special.ndtr((-h - m_v) / s_v)
+    return dens * inner
+
+
+def _integrand_tau(
+    tau: FloatArray,
+    m_u: FloatArray,
+    s_u: FloatArray,
+    m_v: FloatArray,
+    s_v: FloatArray,
+    w: FloatArray,
+) -> FloatArray:
+    """The theta integrand in ``tau = tan(theta / 2)`` (rational: no trigonometric calls)."""
+    t2 = tau * tau
+    inv = 1.0 / (1.0 + t2)
+    st = 2.0 * tau * inv
+    h = w * np.maximum((1.0 - t2) * inv, 0.0)
+    z = (w * st - m_u) / s_u
+    dens = np.exp(-0.5 * z * z) * (h * 2.0 * inv / (math.sqrt(2.0 * math.pi) * s_u))
+    inner = special.ndtr((h - m_v) / s_v) - special.ndtr((-h - m_v) / s_v)
+    return dens * inner
+
+
+def _smooth(m_u: FloatArray, s_u: FloatArray, s_v: FloatArray, w: FloatArray) -> np.ndarray:
+    """Pairs for the Gauss-Hermite rule (m,): the outer window lies well inside (-w, w) and the
+    inner term changes slowly across it (its argument moves by at most ``_GH_MAX_SLOPE`` per outer
+    standard deviation), so a 12-node rule is exact to 1e-9 (checked by the tests)."""
+    reach = np.abs(m_u) + _K_SIGMA * s_u
+    h_min = np.sqrt(np.maximum(w * w - reach * reach, 0.0))
+    return (reach <= _GH_MAX_REACH * w) & (s_u * reach <= _GH_MAX_SLOPE * h_min * s_v)
+
+
+def _p_inside_batch(mu: FloatArray, S: FloatArray, w: FloatArray) -> FloatArray:
+    """P(||d|| <= w) for (m,) pairs by Gauss-Hermite or Gauss-Legendre (see module docstring).
+
+    Pairs whose mean is more than ``_K_SCREEN_BATCH`` major-axis sigmas outside (inside) the disc
+    get 0 (1): ``P(||d - mu|| >= r) <= exp(-r^2 / (2 s_v^2))`` bounds the error by 4.1e-5; so do
+    pairs more than ``_K_SCREEN_BATCH`` radial sigmas outside (``||d|| >= d . mu / |mu|``, a
+    normal with the radial variance), error below 3.4e-6, and pairs whose mean lies more than that
+    many sigmas outside the strip ``|u| <= w`` or ``|v| <= w`` of an eigen-axis.
+    """
+    m = mu.shape[0]
+    out = np.zeros(m)
+    if m == 0:
+        return out
+    m_u, s_u, m_v, s_v = _eigen_frame(mu, S, w)
+    dist = np.hypot(mu[:, 0], mu[:, 1])
+    # ||d|| >= d . e with e = mu / |mu|, and d . e ~ N(|mu|, e^T S e): a tighter "outside" test.
+    with np.errstate(invalid="ignore", divide="ignore"):
+        e = mu / dist[:, None]
+        s_e = np.sqrt(np.einsum("mi,mij,mj->m", e, S, e))
+    # The disc lies in every strip |d . e| <= w: the minor and major axes give two more tests.
+    outside = (
+        (dist - w > _K_SCREEN_BATCH * s_v)
+        | ((dist > 0) & (dist - w > _K_SCREEN_BATCH * s_e))
+        | (np.abs(m_u) - w > _K_SCREEN_BATCH * s_u)
+        | (np.abs(m_v) - w > _K_SCREEN_BATCH * s_v)
+    )
+    inside = w - dist > _K_SCREEN_BATCH * s_v
+    out[inside] = 1.0
+    todo = ~(outside | inside)
+    if not np.any(todo):
+        return out
+    smooth = todo & _smooth(m_u, s_u, s_v, w)
+    idx = np.flatnonzero(smooth)
+    rows = _NODE_BLOCK // _GH_NODES.shape[0]
+    for b0 in range(0, idx.shape[0], rows):
+        k = idx[b0 : b0 + rows, None]
+        u = m_u[k] + s_u[k] * _GH_NODES[None, :]
+        h = np.sqrt(w[k] * w[k] - u * u)
+        mv_, sv_ = np.abs(m_v[k]), s_v[k]
+        inner = special.ndtr((h - mv_) / sv_) - special.ndtr((-h - mv_) / sv_)
+        out[k[:, 0]] = np.clip(inner @ _GH_WEIGHTS, 0.0, 1.0)
+    todo &= ~smooth
+    if not np.any(todo):
+        return out
+    idx = np.flatnonzero(todo)
+    mu_, su, mv, sv, ww = m_u[idx], s_u[idx], m_v[idx], s_v[idx], w[idx]
+    bps, _, valid = _windows(mu_, su, mv, sv, ww)
+    # Panels between consecutive distinct breakpoints (in tau = tan(theta / 2)); empty panels
+    # are dropped.
+    bps = np.tan(0.5 * bps)
+    a0, a1 = bps[:, :-1], bps[:, 1:]
+    nonempty = (a1 > a0) & valid[:, None]
+    pair, _ = np.nonzero(nonempty)
+    p0, p1 = a0[nonempty], a1[nonempty]
+    half = 0.5 * (p1 - p0)
+    mid = 0.5 * (p1 + p0)
+    mv = np.abs(mv)
+    panel_sums = np.empty(pair.shape[0])
+    # Blocks of panels keep the temporaries small (in cache, and reused by the allocator instead
+    # of fresh pages from the system, whose faults would cost more than the arithmetic).
+    for b0 in range(0, pair.shape[0], _PANEL_BLOCK):
+        b1 = b0 + _PANEL_BLOCK
+        pr = pair[b0:b1, None]
+        tau = mid[b0:b1, None] + half[b0:b1, None] * _GL_NODES[None, :]
+        vals = _integrand_tau(tau, mu_[pr], su[pr], mv[pr], sv[pr], ww[pr])
+        panel_sums[b0:b1] = (vals @ _GL_WEIGHTS) * half[b0:b1]
+    res = np.bincount(pair, weights=panel_sums, minlength=idx.shape[0])
+    out[idx] = np.clip(res, 0.0, 1.0)
+    return out
+
+
+def _p_inside_scalar(mu: FloatArray, S: FloatArray, w: float) -> float:
+    """P(||d|| <= w) for one pair by adaptive quadrature (exact to ~1e-10)."""
+    wa = np.array([w])
+    dist = float(np.hypot(mu[0], mu[1]))
+    m_u, s_u, m_v, s_v = (float(x[0]) for x in _eigen_frame(mu[None], S[None], wa))
+    if dist - w > _K_SCREEN_EXACT * s_v:
+        return 0.0
+    if w - dist > _K_SCREEN_EXACT * s_v:
+        return 1.0
+    bps, _, valid = _windows(np.array([m_u]), np.array([s_u]), np.array([m_v]), np.array([s_v]), wa)
+    if not valid[0]:
+        return 0.0
+    # Breakpoints closer than 1e-12 rad make panels too thin for quad (it warns): merge them.
+    pts = np.unique(bps[0])
+    keep = np.r_[True, np.diff(pts) > 1e-12]
+    keep[-1] = True
+    pts = pts[keep]
+    if pts.shape[0] > 2 and pts[-1] - pts[-2] <= 1e-12:
+        pts = np.delete(pts, -2)
+
+    def f(t: float) -> float:
+        return float(_integrand(np.array(t), m_u, s_u, m_v, s_v, w))
+
+    total = 0.0
+    for t0, t1 in itertools.pairwise(pts):
+        if t1 > t0:
+            val, _ = integrate.quad(f, t0, t1, epsabs=1e-13, epsrel=1e-11, limit=200)
+            total += val
+    return min(max(total, 0.0), 1.0)
+
+
+def _check_points(mean: ArrayLike, cov: ArrayLike, name: str) -> tuple[FloatArray, FloatArray]:
+    m = finite_array(mean, f"mean_{name}", (2,))
+    c = covariance(cov, f"cov_{name}")
+    if c.shape != (2, 2):
+        raise ValueError(f"cov_{name} must have shape (2, 2), got {c.shape}")
+    return m, c
+
+
+# ---------------------------------------------------------------------------------- public
+def gap_passable_probability(
+    mean_a: ArrayLike, cov_a: ArrayLike, mean_b: ArrayLike, cov_b: ArrayLike, width_m: float
+) -> float:
+    """Probability that the distance between two independent uncertain points exceeds a width.
+
+    Exact (adaptive quadrature of a one-dimensional integral in the eigenbasis of the difference's
+    covariance; see the module docstring), valid for any anisotropy, including sideways gaps with
+    large depth uncertainty.
+
+    Args:
+        mean_a: (2,) mean of the first point, world frame, metres.
+        cov_a: (2, 2) covariance of the first point, m^2, symmetric positive definite.
+        mean_b: (2,) mean of the second point, metres.
+        cov_b: (2, 2) covariance of the second point, m^2.
+        width_m: Robot width (diameter), metres, >= 0.
+
+    Returns:
+        ``P(||b - a|| > width_m)`` in [0, 1].
+
+    Raises:
+        ValueError: NaN or infinite input, a covariance that is not symmetric positive definite,
+            or a negative width (the message names the argument).
+    """
+    ma, ca = _check_points(mean_a, cov_a, "a")
+    mb, cb = _check_points(mean_b, cov_b, "b")
+    w = positive(width_m, "width_m", allow_zero=True)
+    if w == 0.0:
+        return 1.0
+    return 1.0 - _p_inside_scalar(mb - ma, ca + cb, w)
+
+
+def gap_passable_probability_batch(
+    mean_a: ArrayLike,
+    cov_a: ArrayLike,
+    mean_b: ArrayLike,
+    cov_b: ArrayLike,
+    width_m: float | ArrayLike,
+    *,
+    validate: bool = True,
+) -> FloatArray:
+    """Vectorised :func:`gap_passable_probability` for many pairs (the hot loop of the modeling).
+
+    Composite Gauss-Legendre quadrature (96 nodes per pair, only for pairs whose outcome is
+    not already certain); agrees with the scalar function to better than 1e-4.
+
+    Args:
+        mean_a: (m, 2) means of the first points, metres.
+        cov_a: (m, 2, 2) their covariances, m^2. Positive semi-definite is accepted when
+            ``validate`` is False (degenerate covariances are handled).
+        mean_b: (m, 2) means of the second points.
+        cov_b: (m, 2, 2) their covariances.
+        width_m: Robot width, metres: a scalar or (m,).
+        validate: Check the inputs (finite, symmetric positive definite, non-negative width).
+
+    Returns:
+        (m,) probabilities ``P(||b - a|| > width)``.
+    """
+    if validate:
+        ma = finite_array(mean_a, "mean_a", (None, 2))
+        mb = finite_array(mean_b, "mean_b", (ma.shape[0], 2))
+        ca = covariance(cov_a, "cov_a")
+        cb = covariance(cov_b, "cov_b")
+        for name, c in (("cov_a", ca), ("cov_b", cb)):
+            if c.shape != (ma.shape[0], 2, 2):
+                raise ValueError(f"{name} must have shape ({ma.shape[0]}, 2, 2), got {c.shape}")
+        w = np.broadcast_to(np.asarray(width_m, dtype=np.float64), (ma.shape[0],)).copy()
+        if not np.all(np.isfinite(w)) or np.any(w < 0):
+            raise ValueError("width_m must be finite and non-negative")
+    else:
+        ma, mb = np.asarray(mean_a, float), np.asarray(mean_b, float)
+        ca, cb = np.asarray(cov_a, float), np.asarray(cov_b, float)
+        w = np.broadcast_to(np.asarray(width_m, dtype=np.float64), (ma.shape[0],)).copy()
+    return passable_from_difference(mb - ma, ca + cb, w)
+
+
+def passable_from_difference(mu: FloatArray, S: FloatArray, width_m: FloatArray) -> FloatArray:
+    """``P(||d|| > w)`` for ``d ~ N(mu, S)``: mu (m, 2), S (m, 2, 2), width (m,); no validation."""
+    w = np.asarray(width_m, dtype=np.float64)
+    out = np.ones(mu.shape[0])
+    pos = w > 0
+    if np.any(pos):
+        out[pos] = 1.0 - _p_inside_batch(mu[pos], S[pos], w[pos])
+    return out
+
+
+@functools.lru_cache(maxsize=8)
+def _hermite_grid(order: int, minor_order: int) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Tensor Gauss-Hermite rule for the 2-D standard normal: nodes ``z1`` (``order`` of them,
+    major axis), ``z2`` (``minor_order``) and weights, each (order * minor_order,), the weights
+    summing to 1."""
+    x1, w1 = np.polynomial.hermite_e.hermegauss(order)
+    x2, w2 = np.polynomial.hermite_e.hermegauss(minor_order)
+    z1, z2 = np.meshgrid(x1, x2, indexing="ij")
+    out = (z1.ravel(), z2.ravel(), np.outer(w1 / w1.sum(), w2 / w2.sum()).ravel())
+    for arr in out:
+        arr.setflags(write=False)
+    return out
+
+
+def gap_width_moments(
+    mu: FloatArray, S: FloatArray, *, order: int = 12
+) -> tuple[FloatArray, FloatArray]:
+    """Mean and standard deviation of ``||d||`` for ``d ~ N(mu, S)`` (the width distribution).
+
+    The second moment is exact (``|mu|^2 + trace S``); the mean uses a tensor Gauss-Hermite rule
+    in the eigenbasis of ``S``: ``order`` nodes along each axis, or ``order / 3`` (at least 4)
+    along the minor axis when its standard deviation is below a tenth of the major one (this
+    changes the result by less than 1e-4 m). The rule is exact for smooth integrands; ``||d||``
+    has a cone at ``d = 0``, so when ``mu`` is within a few standard deviations of 0 the mean is
+    off by up to about 1 cm (4 % of the standard deviation), far less otherwise.
+
+    Args:
+        mu: (m, 2) mean differences, metres.
+        S: (m, 2, 2) covariances of the differences, m^2.
+        order: Gauss-Hermite order per axis (>= 1).
+
+    Returns:
+        ``(mean_m, std_m)``, each (m,), metres.
+    """
+    mu = np.asarray(mu, dtype=np.float64).reshape(-1, 2)
+    S = np.asarray(S, dtype=np.float64).reshape(-1, 2, 2)
+    if mu.shape[0] == 0:
+        return np.zeros(0), np.zeros(0)
+    order = int(order)
+    a_, b_, d_ = S[:, 0, 0], S[:, 0, 1], S[:, 1, 1]
+    half_tr, r_ = 0.5 * (a_ + d_), np.hypot(0.5 * (a_ - d_), b_)
+    sd_major = np.sqrt(half_tr + r_)
+    sd_minor = np.sqrt(np.maximum(half_tr - r_, 0.0))
+    phi = 0.5 * np.arctan2(2.0 * b_, a_ - d_)  # direction of the major axis
+    c_, s_ = np.cos(phi)[:, None], np.sin(phi)[:, None]
+    mean = np.empty(mu.shape[0])
+    thin = sd_minor < 0.1 * sd_major
+    for sel, minor_order in ((thin, max(4, order // 3)), (~thin, order)):
+        z1, z2, W = _hermite_grid(order, minor_order)
+        idx = np.flatnonzero(sel)
+        rows = max(1, _NODE_BLOCK // z1.shape[0])  # small blocks: see _p_inside_batch
+        for r0 in range(0, idx.shape[0], rows):
+            r = idx[r0 : r0 + rows]
+            # Nodes mu + z1 sd_major e_major + z2 sd_minor e_minor; e_major = (c, s),
+            # e_minor = (-s, c).
+            a = sd_major[r, None] * z1[None, :]  # (rows, q)
+            b = sd_minor[r, None] * z2[None, :]
+            px = mu[r, 0, None] + c_[r] * a - s_[r] * b
+            py = mu[r, 1, None] + s_[r] * a + c_[r] * b
+            mean[r] = np.sqrt(px * px + py * py) @ W  # (np.hypot is ten times slower)
+    second = np.einsum("mi,mi->m", mu, mu) + a_ + d_
+    std = np.sqrt(np.maximum(second - mean * mean, 0.0))
+    return mean, std

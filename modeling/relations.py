@@ -1,0 +1,251 @@
+"""Relations between uncertain floor segments (paper sections 2 and 4.1).
+
+Two segments are related through their closest points (computed on the mean geometry), so a gap in
+the middle of a long wall is found, not only gaps between endpoints. The uncertainty of the point at
+parameter ``t`` of a segment with endpoints ``a ~ N(A, Ca)`` and ``b ~ N(B, Cb)`` is interpolated:
+mean ``(1 - t) A + t B``, covariance ``(1 - t)^2 Ca + t^2 Cb``, which assumes the two endpoints of a
+segment are independent (the stereo fit of a segment correlates them positively, so this slightly
+understates the uncertainty in the middle of a segment; it is exact at the endpoints). Points of two
+different segments are independent.
+
+Only nearby pairs are examined: an envelope query of a shapely STRtree (the mean segments' boxes,
+each grown by ``width / 2 + k sigma_i``, against each other), then an exact filter
+``distance <= width + k (sigma_i + sigma_j)`` where ``sigma_i`` bounds the endpoint standard
+deviations of segment ``i`` and ``k = sqrt(2 ln(1000 / eps))``; the cost grows with the number of
+nearby pairs, not with the square of the number of segments. Pairs not listed
+are passable with probability above ``1 - eps / 1000`` (a Gaussian tail bound), so their
+classification (passable) is certain. The two endpoints of one segment are impassable to each other
+by construction: a segment is one node of the relation graph.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+
+from modeling._validation import FloatArray
+from modeling.gaps import Relation, classify_gaps, passable_from_difference
+
+__all__ = ["SegmentRelations", "closest_points", "segment_relations"]
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class SegmentRelations:
+    """Relations between pairs of segments (one row per examined unordered pair, ``i < j``).
+
+    Attributes:
+        i: (m,) index of the first segment of each pair.
+        j: (m,) index of the second segment (``j > i``).
+        point_i: (m, 2) mean of the closest point on segment ``i``, world frame, metres.
+        point_j: (m, 2) mean of the closest point on segment ``j``, metres.
+        cov_i: (m, 2, 2) covariance of ``point_i``, m^2.
+        cov_j: (m, 2, 2) covariance of ``point_j``, m^2.
+        distance_m: (m,) distance between the two means, metres.
+        p_passable: (m,) probability that the gap exceeds the robot width.
+        kind: (m,) int8 :class:`~modeling.gaps.Relation` codes.
+    """
+
+    i: np.ndarray
+    j: np.ndarray
+    point_i: FloatArray
+    point_j: FloatArray
+    cov_i: FloatArray
+    cov_j: FloatArray
+    distance_m: FloatArray
+    p_passable: FloatArray
+    kind: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.i.shape[0])
+
+    def kind_of(self, a: int, b: int) -> Relation:
+        """The relation between segments ``a`` and ``b`` (symmetric; unlisted pairs: passable)."""
+        lo, hi = min(a, b), max(a, b)
+        hit = np.flatnonzero((self.i == lo) & (self.j == hi))
+        return Relation(int(self.kind[hit[0]])) if hit.size else Relation.PASSABLE
+
+    def p_of(self, a: int, b: int) -> float:
+        """``p_passable`` between segments ``a`` and ``b`` (1.0 for unlisted pairs)."""
+        lo, hi = min(a, b), max(a, b)
+        hit = np.flatnonzero((self.i == lo) & (self.j == hi))
+        return float(self.p_passable[hit[0]]) if hit.size else 1.0
+
+    def subset(self, mask: np.ndarray) -> SegmentRelations:
+        """The rows where ``mask`` (m,) is true."""
+        return SegmentRelations(
+            i=self.i[mask],
+            j=self.j[mask],
+            point_i=self.point_i[mask],
+            point_j=self.point_j[mask],
+            cov_i=self.cov_i[mask],
+            cov_j=self.cov_j[mask],
+            distance_m=self.distance_m[mask],
+            p_passable=self.p_passable[mask],
+            kind=self.kind[mask],
+        )
+
+
+def closest_points(
+    p1: FloatArray, q1: FloatArray, p2: FloatArray, q2: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Parameters of the closest points of segments ``p1-q1`` and ``p2-q2`` (vectorised).
+
+    Args:
+        p1: (m, 2) first endpoints of the first segments.
+        q1: (m, 2) second endpoints of the first segments.
+        p2: (m, 2) first endpoints of the second segments.
+        q2: (m, 2) second endpoints of the second segments.
+
+    Returns:
+        ``(s, t)``, each (m,) in [0, 1]: the closest points are ``p1 + s (q1 - p1)`` and
+        ``p2 + t (q2 - p2)`` (after Ericson, Real-Time Collision Detection, 5.1.9). For parallel
+        overlapping segments the middle of the overlap is chosen.
+    """
+    d1 = q1 - p1
+    d2 = q2 - p2
+    r = p1 - p2
+    a = np.einsum("ij,ij->i", d1, d1)
+    e = np.einsum("ij,ij->i", d2, d2)
+    f = np.einsum("ij,ij->i", d2, r)
+    c = np.einsum("ij,ij->i", d1, r)
+    b = np.einsum("ij,ij->i", d1, d2)
+    tiny = 1e-18
+    a_ok = a > tiny
+    e_ok = e > tiny
+    denom = a * e - b * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s_gen = np.where(denom > 1e-12 * a * e, (b * f - c * e) / denom, np.nan)
+        # Parallel: middle of the overlap of segment 2 projected onto segment 1.
+        t0 = np.clip(-c / a, 0.0, 1.0)
+        t1 = np.clip((b - c) / a, 0.0, 1.0)
+        s_par = 0.5 * (t0 + t1)
+        s = np.clip(np.where(np.isnan(s_gen), s_par, s_gen), 0.0, 1.0)
+        t = (b * s + f) / e
+        low = t < 0.0
+        high = t > 1.0
+        t = np.clip(t, 0.0, 1.0)
+        s = np.where(low, np.clip(-c / a, 0.0, 1.0), s)
+        s = np.where(high, np.clip((b - c) / a, 0.0, 1.0), s)
+        # Degenerate (point) segments.
+        s_pt1 = np.zeros_like(a)
+        t_pt1 = np.clip(f / e, 0.0, 1.0)
+        s_pt2 = np.clip(-c / a, 0.0, 1.0)
+    s = np.where(~a_ok, s_pt1, np.where(~e_ok, s_pt2, s))
+    t = np.where(~a_ok, np.where(e_ok, t_pt1, 0.0), np.where(~e_ok, 0.0, t))
+    return np.nan_to_num(s), np.nan_to_num(t)
+
+
+def _interp(ends: FloatArray, covs: FloatArray, t: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Mean (m, 2) and covariance (m, 2, 2) of the point at parameter ``t`` (m,)."""
+    u = 1.0 - t
+    mean = u[:, None] * ends[:, 0] + t[:, None] * ends[:, 1]
+    cov = (u * u)[:, None, None] * covs[:, 0] + (t * t)[:, None, None] * covs[:, 1]
+    return mean, cov
+
+
+def candidate_pairs(
+    endpoints: FloatArray, cov: FloatArray, width_m: float, eps: float = 0.05
+) -> np.ndarray:
+    """Unordered pairs (p, 2) with ``i < j`` of segments close enough to be not surely passable.
+
+    Args:
+        endpoints: (n, 2, 2) mean endpoints, metres.
+        cov: (n, 2, 2, 2) endpoint covariances, m^2.
+        width_m: Robot width, metres.
+        eps: Classification tolerance; unlisted pairs are passable with probability above
+            ``1 - eps / 1000`` (see :func:`prune_sigmas`).
+    """
+    return _pairs_and_params(endpoints, cov, width_m, eps)[0]
+
+
+def _pairs_and_params(
+    endpoints: FloatArray, cov: FloatArray, width_m: float, eps: float
+) -> tuple[np.ndarray, FloatArray, FloatArray]:
+    """Candidate pairs and the closest-point parameters ``(s, t)`` of each."""
+    n = endpoints.shape[0]
+    empty = np.zeros((0, 2), dtype=np.int64)
+    if n < 2:
+        return empty, np.zeros(0), np.zeros(0)
+    tr = np.trace(cov, axis1=-2, axis2=-1)  # (n, 2): upper bound of the largest eigenvalue
+    sigma = np.sqrt(tr.max(axis=1))
+    k = prune_sigmas(eps)
+    # Envelope query: the mean segments i and j are at least as far apart as their boxes along
+    # either axis, so a pair within width + k (s_i + s_j) has intersecting boxes when each box is
+    # grown by width / 2 + k s_i. Boxes against themselves: every pair comes once as i < j.
+    grow = 0.5 * width_m + k * sigma
+    lo = endpoints.min(axis=1) - grow[:, None]
+    hi = endpoints.max(axis=1) + grow[:, None]
+    boxes = shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1])
+    q = shapely.STRtree(boxes).query(boxes)
+    upper = q[0] < q[1]
+    i, j = q[0][upper].astype(np.int64), q[1][upper].astype(np.int64)
+    if i.shape[0] == 0:
+        return empty, np.zeros(0), np.zeros(0)
+    # Exact filter on the mean distance between the segments.
+    Ei, Ej = endpoints[i], endpoints[j]
+    s_, t_ = closest_points(Ei[:, 0], Ei[:, 1], Ej[:, 0], Ej[:, 1])
+    pa = Ei[:, 0] + s_[:, None] * (Ei[:, 1] - Ei[:, 0])
+    pb = Ej[:, 0] + t_[:, None] * (Ej[:, 1] - Ej[:, 0])
+    d = np.hypot(*(pb - pa).T)
+    keep = np.flatnonzero(d <= width_m + k * (sigma[i] + sigma[j]))
+    keep = keep[np.argsort(i[keep] * n + j[keep], kind="stable")]  # rows sorted by (i, j)
+    return np.stack([i[keep], j[keep]], axis=1), s_[keep], t_[keep]
+
+
+def prune_sigmas(eps: float) -> float:
+    """Multiple of the summed sigmas beyond which a gap is surely passable for tolerance ``eps``.
+
+    For ``d ~ N(mu, S)`` with ``S``'s largest eigenvalue at most ``s^2``,
+    ``P(||d|| <= w) <= exp(-(|mu| - w)^2 / (2 s^2))``; requiring this to be below ``eps / 1000``
+    gives ``|mu| - w >= s sqrt(2 ln(1000 / eps))``.
+    """
+    return math.sqrt(2.0 * math.log(1000.0 / eps))
+
+
+def segment_relations(
+    endpoints: FloatArray,
+    cov: FloatArray,
+    width_m: float,
+    eps: float,
+    *,
+    pairs: np.ndarray | None = None,
+) -> SegmentRelations:
+    """Relations of nearby segment pairs: closest points, their uncertainty, ``p_passable``, kind.
+
+    Args:
+        endpoints: (n, 2, 2) mean endpoints, world frame, metres.
+        cov: (n, 2, 2, 2) endpoint covariances, m^2.
+        width_m: Robot width (diameter), metres.
+        eps: Classification tolerance (see :func:`~modeling.gaps.classify_gap`).
+        pairs: (p, 2) pairs to examine; default: :func:`candidate_pairs`.
+
+    Returns:
+        The :class:`SegmentRelations`, rows sorted by ``(i, j)``.
+    """
+    if pairs is None:
+        pairs, s, t = _pairs_and_params(endpoints, cov, width_m, eps)
+        i, j = pairs[:, 0], pairs[:, 1]
+        Ei, Ej = endpoints[i], endpoints[j]
+    else:
+        i = np.minimum(pairs[:, 0], pairs[:, 1]).astype(np.int64)
+        j = np.maximum(pairs[:, 0], pairs[:, 1]).astype(np.int64)
+        Ei, Ej = endpoints[i], endpoints[j]
+        s, t = closest_points(Ei[:, 0], Ei[:, 1], Ej[:, 0], Ej[:, 1])
+    mi, ci = _interp(Ei, cov[i], s)
+    mj, cj = _interp(Ej, cov[j], t)
+    diff = mj - mi
+    p = passable_from_difference(diff, ci + cj, np.full(i.shape[0], float(width_m)))
+    return SegmentRelations(
+        i=i,
+        j=j,
+        point_i=mi,
+        point_j=mj,
+        cov_i=ci,
+        cov_j=cj,
+        distance_m=np.hypot(diff[:, 0], diff[:, 1]),
+        p_passable=p,
+        kind=classify_gaps(p, eps),
+    )
