@@ -1,0 +1,128 @@
+"""Figures of an environment model in the style of the paper's Figs. 6 and 11.
+
+matplotlib is imported lazily, inside :func:`plot_model`, so that ``import modeling`` (and this
+module) never pulls it in; a new figure is a plain :class:`matplotlib.figure.Figure` (no pyplot, no
+global backend change), to be saved with ``fig.savefig(...)``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from modeling.model import EnvironmentModel
+
+__all__ = ["plot_model"]
+
+
+def _ellipse_xy(mean: np.ndarray, cov: np.ndarray, k: float = 2.0, n: int = 24) -> np.ndarray:
+    vals, vecs = np.linalg.eigh(cov)
+    t = np.linspace(0, 2 * math.pi, n)
+    circle = np.stack([np.cos(t), np.sin(t)], axis=1) * (k * np.sqrt(np.maximum(vals, 0)))
+    return mean + circle @ vecs.T
+
+
+def plot_model(
+    model: EnvironmentModel,
+    *,
+    ax: Any = None,
+    max_panels: int = 4,
+    ground_truth: Sequence[np.ndarray] | None = None,
+    show_ellipses: bool = True,
+) -> Any:
+    """Draw the model: one panel per situation (most probable first), or one situation on ``ax``.
+
+    Each panel shows the occluded area (grey), the obstacles (filled convex polygon, numbered, and
+    their skeleton in black), the critical regions (orange, labelled with ``p_passable``, the
+    narrowest relation dashed), the candidates of the ambiguous segments (purple: thin and dotted,
+    the chosen one thick), 2-sigma endpoint ellipses, the viewpoint (red triangle), and optionally
+    the ground-truth outlines (green); its title gives the situation's probability and choices
+    ``{ambiguous index: candidate index}``.
+
+    Args:
+        model: The environment model.
+        ax: A matplotlib Axes: draw the most probable situation there. Default: a new figure.
+        max_panels: At most this many situations (panels) in a new figure.
+        ground_truth: Optional (k, 2) outlines, world frame, metres.
+        show_ellipses: Draw endpoint uncertainty ellipses.
+
+    Returns:
+        The matplotlib Figure (new: a :class:`matplotlib.figure.Figure`, not managed by pyplot).
+
+    Raises:
+        ValueError: ``max_panels`` below 1.
+    """
+    from matplotlib.collections import LineCollection
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Polygon as MplPolygon
+
+    if isinstance(max_panels, bool) or not isinstance(max_panels, int) or max_panels < 1:
+        raise ValueError(f"max_panels must be an integer >= 1, got {max_panels!r}")
+    sits = list(model.situations[: (1 if ax is not None else max_panels)])
+    if ax is None:
+        n = len(sits)
+        cols = min(n, 2)
+        rows = math.ceil(n / cols)
+        fig = Figure(figsize=(6 * cols, 5 * rows))
+        axes_list = [fig.add_subplot(rows, cols, k + 1) for k in range(n)]
+        fig.suptitle(
+            f"{len(model.situations)} situation(s), residual {model.residual_probability:.3g}",
+            fontsize=10,
+        )
+    else:
+        fig = ax.figure
+        axes_list = [ax]
+    obs = model.observation
+    ellipses = (
+        [_ellipse_xy(sg.endpoints[k], sg.cov[k]) for sg in obs.segments for k in range(2)]
+        if show_ellipses
+        else []
+    )
+    for a, sit in zip(axes_list, sits, strict=False):
+        for ring in model.occluded:
+            a.add_patch(MplPolygon(ring, closed=True, fc="0.85", ec="none", zorder=0))
+        if ground_truth is not None:
+            for outline in ground_truth:
+                o = np.asarray(outline)
+                a.add_patch(MplPolygon(o, closed=True, fill=False, ec="green", lw=1, zorder=1))
+        if ellipses:
+            a.add_collection(LineCollection(ellipses, colors="0.4", linewidths=0.5, zorder=2))
+        for oi, ob in enumerate(sit.obstacles):
+            a.add_patch(
+                MplPolygon(ob.polygon, closed=True, fc="tab:blue", alpha=0.15, ec="tab:blue")
+            )
+            c = ob.points.mean(axis=0)
+            a.text(c[0], c[1], str(oi), fontsize=7, color="tab:blue", zorder=5)
+        skeleton = [ln for ob in sit.obstacles for ln in ob.lines]
+        if skeleton:
+            a.add_collection(LineCollection(skeleton, colors="k", linewidths=2, zorder=3))
+        for reg in sit.critical_regions:
+            a.add_patch(
+                MplPolygon(reg.polygon, closed=True, fc="orange", alpha=0.4, ec="darkorange")
+            )
+            nw = np.asarray(reg.narrowest)
+            a.plot(nw[:, 0], nw[:, 1], ls="--", color="darkorange", lw=1.5, zorder=4)
+            m = nw.mean(axis=0)
+            a.text(m[0], m[1], f"{reg.p_passable:.2f}", fontsize=8, color="darkred", zorder=6)
+        # Ambiguous segments: every candidate thin and dotted, the chosen one thick.
+        others, chosen = [], []
+        for ai, amb in enumerate(obs.ambiguous):
+            pick = sit.choice.get(ai, model.merged_ambiguous.get(ai))
+            for ci, cand in enumerate(amb.candidates):
+                (chosen if ci == pick else others).append(cand.endpoints)
+        if others:
+            a.add_collection(
+                LineCollection(others, colors="purple", linewidths=0.8, linestyles=":", zorder=3)
+            )
+        if chosen:
+            a.add_collection(LineCollection(chosen, colors="purple", linewidths=2.5, zorder=4))
+        vp = obs.viewpoint
+        a.plot([vp[0]], [vp[1]], marker="^", color="red", zorder=7)
+        a.set_aspect("equal")
+        a.autoscale_view()
+        picks = " ".join(f"{k}:{v}" for k, v in sit.choice.items())
+        a.set_title(f"p = {sit.probability:.3g}" + (f"  [{picks}]" if picks else ""), fontsize=9)
+    return fig

@@ -1,0 +1,99 @@
+"""Bad input is a ValueError naming it; degenerate-but-legal input gives a valid empty result."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from modeling.gaps import gap_passable_probability, gap_passable_probability_batch
+from modeling.model import build_model
+from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
+
+C = np.eye(2) * 1e-4
+
+
+def good_seg() -> FloorSegment:
+    return FloorSegment(endpoints=np.array([[0.0, 0.0], [1.0, 0.0]]), cov=np.stack([C, C]))
+
+
+def test_nan_coordinates() -> None:
+    with pytest.raises(ValueError, match="endpoints"):
+        FloorSegment(endpoints=np.array([[0.0, np.nan], [1.0, 0.0]]), cov=np.stack([C, C]))
+    with pytest.raises(ValueError, match="mean_a"):
+        gap_passable_probability([np.nan, 0], C, [1, 0], C, 0.5)
+    with pytest.raises(ValueError, match="mean_b"):
+        gap_passable_probability_batch([[0, 0]], [C], [[np.inf, 0]], [C], 0.5)
+
+
+def test_nan_covariance_and_width() -> None:
+    with pytest.raises(ValueError, match="cov_a"):
+        gap_passable_probability([0, 0], [[np.nan, 0], [0, 1e-4]], [1, 0], C, 0.5)
+    with pytest.raises(ValueError, match="cov"):
+        FloorSegment(endpoints=np.array([[0.0, 0.0], [1.0, 0.0]]), cov=np.stack([C, C * np.nan]))
+    with pytest.raises(ValueError, match="robot_width_m"):
+        build_model(FloorObservation(), float("nan"))
+    with pytest.raises(ValueError, match="width_m"):
+        gap_passable_probability([0, 0], C, [1, 0], C, float("inf"))
+
+
+def test_non_symmetric_covariance() -> None:
+    bad = np.array([[1e-4, 5e-5], [0.0, 1e-4]])
+    with pytest.raises(ValueError, match=r"cov.*symmetric"):
+        FloorSegment(endpoints=np.array([[0.0, 0.0], [1.0, 0.0]]), cov=np.stack([bad, C]))
+    with pytest.raises(ValueError, match="cov_a must be symmetric"):
+        gap_passable_probability([0, 0], bad, [1, 0], C, 0.5)
+
+
+def test_non_positive_definite_covariance() -> None:
+    bad = np.array([[1e-4, 2e-4], [2e-4, 1e-4]])
+    with pytest.raises(ValueError, match=r"cov.*positive definite"):
+        FloorSegment(endpoints=np.array([[0.0, 0.0], [1.0, 0.0]]), cov=np.stack([C, bad]))
+    with pytest.raises(ValueError, match="cov_b must be positive definite"):
+        gap_passable_probability([0, 0], C, [1, 0], bad, 0.5)
+    with pytest.raises(ValueError, match="cov_b"):
+        gap_passable_probability([0, 0], C, [1, 0], -C, 0.5)
+
+
+def test_probabilities_not_summing_to_one() -> None:
+    with pytest.raises(ValueError, match="probabilities must sum to 1"):
+        AmbiguousSegment(candidates=(good_seg(), good_seg()), probabilities=(0.5, 0.4))
+
+
+def test_negative_width() -> None:
+    with pytest.raises(ValueError, match="width_m"):
+        gap_passable_probability([0, 0], C, [1, 0], C, -0.1)
+    with pytest.raises(ValueError, match="width_m"):
+        gap_passable_probability_batch([[0, 0]], [C], [[1, 0]], [C], -0.1)
+    with pytest.raises(ValueError, match="robot_width_m"):
+        build_model(FloorObservation(), -0.5)
+
+
+def test_bad_model_arguments() -> None:
+    obs = FloorObservation(segments=(good_seg(),))
+    with pytest.raises(ValueError, match="eps"):
+        build_model(obs, 0.5, eps=0.6)
+    with pytest.raises(ValueError, match="max_situations"):
+        build_model(obs, 0.5, max_situations=0)
+    with pytest.raises(ValueError, match="min_isolated_length_m"):
+        build_model(obs, 0.5, min_isolated_length_m=-1.0)
+    with pytest.raises(ValueError, match="observation"):
+        build_model([good_seg()], 0.5)  # type: ignore[arg-type]
+
+
+def test_empty_observation_gives_one_certain_empty_situation() -> None:
+    m = build_model(FloorObservation(), 0.5)
+    (s,) = m.situations
+    assert s.probability == 1.0
+    assert s.obstacles == () and s.critical_regions == ()
+    assert m.residual_probability == 0.0
+    assert m.occluded == ()
+    assert len(m.relations) == 0
+    g = s.path_graph([0, 0], [3, 0])
+    assert g.has_edge("start", "goal")
+
+
+def test_single_segment_is_one_obstacle() -> None:
+    m = build_model(FloorObservation(segments=(good_seg(),)), 0.5)
+    (s,) = m.situations
+    assert len(s.obstacles) == 1
+    assert s.obstacles[0].polygon.shape[1] == 2 and s.obstacles[0].polygon.shape[0] >= 3
