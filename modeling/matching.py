@@ -1,0 +1,675 @@
+"""Segment matching with local disparity histograms and ambiguous candidates (section 3.1, 3.3).
+
+Candidates (left segment ``i``, right segment ``j``) must satisfy
+
+* the epipolar constraint: their row ranges overlap by at least ``min_overlap_px`` rows and by at
+  least ``min_overlap_frac`` of the shorter one's row range;
+* the direction constraint: their angles to the image vertical differ by at most
+  ``max_angle_diff_deg``; the contrast polarity is the same ("similar direction") or, when
+  ``allow_opposite``, opposite ("almost opposite direction": an occluding edge may show a different
+  background in the two images);
+* photometric consistency, from the grey levels each segment carries on both sides of its edge,
+  "far" (3 px) and "near" (1.5 px). A same-polarity pair must agree on both near sides (within
+  ``max_near_grey_diff``) and on at least one far side (within ``max_grey_diff``): the pixels right
+  next to an edge are the two surfaces that meet there, and they look the same from both cameras.
+  This rejects in particular the *view-dependent* contours of thick objects: where the right camera
+  sees a narrow side face that the left one does not (or the converse), the two images' edges are
+  different 3D lines a side face apart, and their disparity is wrong by a pixel or more. An
+  opposite-polarity pair must agree on one side, near and far (the occluding surface; the other
+  side is a background that differs between the views);
+* the disparity range: the disparity ``u_left - u_right`` at both ends of the overlapping part lies
+  in ``[rig.min_disparity_px, rig.max_disparity_px]`` (within ``agree_px``).
+
+``match_candidates`` returns exactly these pairs (what the histograms then decide among).
+
+Local disparity histogram [Miura ICRA-94, ref. 9]. Each candidate puts its mid disparity into the
+histogram of its left segment (1 px bins), weighted by the length of the overlapping part (times
+``opposite_weight`` for an opposite-polarity pair) and spread as a Gaussian of standard deviation
+``smooth_px`` (the smoothing of the histogram). The histogram of the *region around* left segment
+``i`` is the sum of those of all left segments, each weighted by a Gaussian of the image distance
+between segment midpoints (``region_sigma_px``; ``self_weight`` for ``i`` itself). Its prominent
+peaks are the local maxima (within ``min_peak_sep_px``) of at least ``rel_peak`` times the highest
+one, located to a fraction of a bin by a parabola.
+
+Decision. For every prominent peak ``k`` of segment ``i``'s region, the candidate of ``i`` whose
+disparity is closest to the peak (within ``agree_px``) is kept. If one peak is matched, the match is
+certain (probability 1); if several are, each kept candidate gets ``a_k / sum_j a_j`` (Eq. 1), where
+``a_k`` is the height of its peak. Left segments with no agreeing candidate are dropped.
+
+Uniqueness (``unique_right``). One right segment is the image of one 3D edge, so two left segments
+cannot both be right about it at different disparities. A *certain* claim (the left segment's only
+kept candidate) on a right segment that another left segment also keeps, at a disparity more than
+``agree_px`` away and with a higher peak (ties: the longer overlap), is dropped with its left
+segment (typically an edge occluded in the right image that took a visible edge's partner).
+Ambiguous candidates are never removed this way: for a repeated pattern, candidates of neighbouring
+left segments share right segments by nature, and the ambiguity is what section 3.3 keeps.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from modeling._validation import FloatArray
+from modeling.rig import StereoRig
+from modeling.segments import ImageSegments
+
+__all__ = ["MatchCandidates", "StereoMatches", "match_candidates", "match_segments"]
+
+IntArray = NDArray[np.int64]
+
+_BIN_PX = 1.0  # disparity histogram bin, px (peaks are refined to sub-bin by a parabola)
+
+
+def _readonly(arr: np.ndarray) -> np.ndarray:
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class StereoMatches:
+    """Kept (left segment, right candidate) pairs, one row each (``m`` rows, possibly zero).
+
+    Rows are sorted by left segment index, then by decreasing probability.
+
+    Attributes:
+        left_index: (m,) index into the left ``ImageSegments``.
+        right_index: (m,) index into the right ``ImageSegments``.
+        probability: (m,) probability of the pair (Eq. 1); the rows of one left segment sum to 1.
+        left_endpoints: (m, 2, 2) ``[[u, v], [u, v]]`` px: the vertically overlapping part of the
+            pair, in the left image, top to bottom.
+        disparity_px: (m, 2) disparity ``u_left - u_right`` at those two endpoints, px.
+        disparity_var: (m, 2) variance of the disparity at the endpoints, px^2
+            (``var u_left + var u_right``; the images are independent).
+        u_left_var: (m, 2) variance of ``u_left`` at the endpoints, px^2 (also the covariance of
+            ``u_left`` with the disparity).
+        v_var: (m, 2) variance of the endpoint rows, px^2 (where along the edge it ends).
+        peak_disparity_px: (m,) position of the histogram peak the pair agrees with, px.
+        peak_height: (m,) that peak's height ``a_k`` in the region's histogram (overlap lengths
+            smoothed along disparity: px of segment per px of disparity).
+        opposite_polarity: (m,) whether the pair was accepted as "almost opposite direction".
+        n_candidates: Number of candidate pairs that passed the constraints (before the histogram).
+    """
+
+    left_index: IntArray
+    right_index: IntArray
+    probability: FloatArray
+    left_endpoints: FloatArray
+    disparity_px: FloatArray
+    disparity_var: FloatArray
+    u_left_var: FloatArray
+    v_var: FloatArray
+    peak_disparity_px: FloatArray
+    peak_height: FloatArray
+    opposite_polarity: NDArray[np.bool_]
+    n_candidates: int = field(default=0)
+
+    def __post_init__(self) -> None:
+        li = np.asarray(self.left_index, dtype=np.int64)
+        if li.ndim != 1:
+            raise ValueError(f"left_index must have shape (m,), got {li.shape}")
+        m = li.shape[0]
+        shapes: dict[str, tuple[tuple[int, ...], type]] = {
+            "left_index": ((m,), np.int64),
+            "right_index": ((m,), np.int64),
+            "probability": ((m,), np.float64),
+            "left_endpoints": ((m, 2, 2), np.float64),
+            "disparity_px": ((m, 2), np.float64),
+            "disparity_var": ((m, 2), np.float64),
+            "u_left_var": ((m, 2), np.float64),
+            "v_var": ((m, 2), np.float64),
+            "peak_disparity_px": ((m,), np.float64),
+            "peak_height": ((m,), np.float64),
+            "opposite_polarity": ((m,), np.bool_),
+        }
+        for name, (shape, dtype) in shapes.items():
+            arr = np.asarray(getattr(self, name), dtype=dtype)
+            if arr.shape != shape:
+                raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
+            object.__setattr__(self, name, _readonly(arr))
+
+    def __len__(self) -> int:
+        return int(self.left_index.shape[0])
+
+    @classmethod
+    def _trusted(cls, n_candidates: int, **arrays: np.ndarray) -> StereoMatches:
+        """Built from arrays that ``match_segments`` has produced with the right shapes and dtypes:
+        skips the conversions and checks of ``__post_init__``."""
+        obj = object.__new__(cls)
+        for name, arr in arrays.items():
+            object.__setattr__(obj, name, _readonly(arr))
+        object.__setattr__(obj, "n_candidates", n_candidates)
+        return obj
+
+    @classmethod
+    def empty(cls, n_candidates: int = 0) -> StereoMatches:
+        """No matches."""
+        z1, z2 = np.zeros(0), np.zeros((0, 2))
+        zi = np.zeros(0, dtype=np.int64)
+        return cls(
+            left_index=zi,
+            right_index=zi,
+            probability=z1,
+            left_endpoints=np.zeros((0, 2, 2)),
+            disparity_px=z2,
+            disparity_var=z2,
+            u_left_var=z2,
+            v_var=z2,
+            peak_disparity_px=z1,
+            peak_height=z1,
+            opposite_polarity=np.zeros(0, dtype=bool),
+            n_candidates=n_candidates,
+        )
+
+    @property
+    def ambiguous(self) -> NDArray[np.bool_]:
+        """(m,) whether the row's left segment has several kept candidates."""
+        if len(self) == 0:
+            return np.zeros(0, dtype=bool)
+        counts = np.bincount(self.left_index)
+        return counts[self.left_index] > 1
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class MatchCandidates:
+    """Every (left, right) pair that passes the matching constraints, before any histogram.
+
+    One row per pair (``k`` rows, possibly zero), sorted by left index then right index. This is
+    what the local disparity histograms decide among; it is exposed for evaluation ("was the true
+    partner a candidate at all?") and diagnostics.
+
+    Attributes:
+        left_index: (k,) index into the left ``ImageSegments``.
+        right_index: (k,) index into the right ``ImageSegments``.
+        rows_px: (k, 2) first and last row of the vertically overlapping part, px.
+        disparity_px: (k, 2) disparity ``u_left - u_right`` at those rows, px.
+        opposite_polarity: (k,) whether the two edges have opposite contrast polarity.
+        overlap_px: (k,) number of overlapping rows, px.
+    """
+
+    left_index: IntArray
+    right_index: IntArray
+    rows_px: FloatArray
+    disparity_px: FloatArray
+    opposite_polarity: NDArray[np.bool_]
+    overlap_px: FloatArray
+
+    def __post_init__(self) -> None:
+        k = np.asarray(self.left_index).shape[0]
+        for name, shape, dtype in (
+            ("left_index", (k,), np.int64),
+            ("right_index", (k,), np.int64),
+            ("rows_px", (k, 2), np.float64),
+            ("disparity_px", (k, 2), np.float64),
+            ("opposite_polarity", (k,), np.bool_),
+            ("overlap_px", (k,), np.float64),
+        ):
+            arr = np.asarray(getattr(self, name), dtype=dtype)
+            if arr.shape != shape:
+                raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
+            object.__setattr__(self, name, _readonly(arr))
+
+    def __len__(self) -> int:
+        return int(self.left_index.shape[0])
+
+
+def _check_segments(value: object, name: str) -> ImageSegments:
+    if not isinstance(value, ImageSegments):
+        raise ValueError(f"{name} must be an ImageSegments, got {type(value).__name__}")
+    return value
+
+
+def _check_rig(rig: object) -> StereoRig:
+    if not isinstance(rig, StereoRig):
+        raise ValueError(f"rig must be a StereoRig, got {type(rig).__name__}")
+    return rig
+
+
+def _check_constraint_options(
+    min_overlap_frac: float,
+    min_overlap_px: float,
+    max_angle_diff_deg: float,
+    max_grey_diff: float,
+    max_near_grey_diff: float,
+    agree_px: float,
+) -> None:
+    if not (0.0 <= min_overlap_frac <= 1.0):
+        raise ValueError(f"min_overlap_frac must be in [0, 1], got {min_overlap_frac!r}")
+    if not (math.isfinite(min_overlap_px) and min_overlap_px >= 0):
+        raise ValueError(f"min_overlap_px must be a non-negative number, got {min_overlap_px!r}")
+    for name, value in (
+        ("max_angle_diff_deg", max_angle_diff_deg),
+        ("agree_px", agree_px),
+    ):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+    for name, value in (
+        ("max_grey_diff", max_grey_diff),
+        ("max_near_grey_diff", max_near_grey_diff),
+    ):
+        if not (value >= 0):  # inf allowed: disables the check
+            raise ValueError(f"{name} must be non-negative, got {value!r}")
+
+
+@dataclass(frozen=True, slots=True)
+class _Candidates:
+    """Candidate pairs as parallel arrays (``k >= 1`` rows), sorted by left then right index."""
+
+    li: IntArray
+    rj: IntArray
+    lo: FloatArray  # first row of the overlap, px
+    hi: FloatArray  # last row of the overlap, px
+    ov: FloatArray  # overlap, rows
+    d_lo: FloatArray  # disparity at lo, px
+    d_hi: FloatArray  # disparity at hi, px
+    opposite: NDArray[np.bool_]
+
+
+def _candidates(
+    left: ImageSegments,
+    right: ImageSegments,
+    rig: StereoRig,
+    *,
+    min_overlap_frac: float,
+    min_overlap_px: float,
+    max_angle_diff_deg: float,
+    allow_opposite: bool,
+    max_grey_diff: float,
+    max_near_grey_diff: float,
+    margin_px: float,
+) -> _Candidates | None:
+    """Pairs passing the epipolar, direction, photometric and disparity-range constraints, or
+    ``None`` when none does (see the module docstring)."""
+    if len(left) == 0 or len(right) == 0:
+        return None
+    v0L, v1L = left.endpoints[:, 0, 1], left.endpoints[:, 1, 1]
+    v0R, v1R = right.endpoints[:, 0, 1], right.endpoints[:, 1, 1]
+    lo = np.maximum(v0L[:, None], v0R)
+    hi = np.minimum(v1L[:, None], v1R)
+    ov = hi - lo
+    ok = ov >= np.maximum(
+        min_overlap_px, min_overlap_frac * np.minimum((v1L - v0L)[:, None], v1R - v0R)
+    )
+    # the direction constraint on the (nL, nR) grid too: cheap, and it thins the pairs early
+    ok &= np.abs(left.angle_rad[:, None] - right.angle_rad) <= math.radians(max_angle_diff_deg)
+    opposite_grid = left.polarity[:, None] != right.polarity
+    if not allow_opposite:
+        ok &= ~opposite_grid
+    li, rj = np.nonzero(ok)
+    if li.size == 0:
+        return None
+    lo, hi, ov, opposite = lo[li, rj], hi[li, rj], ov[li, rj], opposite_grid[li, rj]
+    # photometric agreement of the four side samples: far left, far right, near left, near right
+    grey_l = np.stack(
+        [left.grey_left, left.grey_right, left.grey_left_near, left.grey_right_near], axis=1
+    )
+    grey_r = np.stack(
+        [right.grey_left, right.grey_right, right.grey_left_near, right.grey_right_near], axis=1
+    )
+    agree = np.abs(grey_l[li] - grey_r[rj]) <= np.array(
+        [max_grey_diff, max_grey_diff, max_near_grey_diff, max_near_grey_diff]
+    )
+    far_l, far_r, near_l, near_r = agree.T
+    photo_ok = np.where(
+        opposite, (far_l & near_l) | (far_r & near_r), (far_l | far_r) & near_l & near_r
+    )
+    # disparity along the pair: d(v) = u_left(v) - u_right(v) = (a_l - a_r) + (s_l - s_r) v, with
+    # u(v) = a + s v the fitted lines
+    a_l = left.u_center - left.slope * left.v_center
+    a_r = right.u_center - right.slope * right.v_center
+    d_a = a_l[li] - a_r[rj]
+    d_s = left.slope[li] - right.slope[rj]
+    d_lo = d_a + d_s * lo
+    d_hi = d_a + d_s * hi
+    dmin = max(rig.min_disparity_px - margin_px, 1e-3)
+    dmax = rig.max_disparity_px + margin_px
+    keep = np.flatnonzero(
+        photo_ok & (np.minimum(d_lo, d_hi) >= dmin) & (np.maximum(d_lo, d_hi) <= dmax)
+    )
+    if keep.size == 0:
+        return None
+    return _Candidates(
+        li=li[keep],
+        rj=rj[keep],
+        lo=lo[keep],
+        hi=hi[keep],
+        ov=ov[keep],
+        d_lo=d_lo[keep],
+        d_hi=d_hi[keep],
+        opposite=opposite[keep],
+    )
+
+
+def _exclusive_right(
+    sel: IntArray,
+    a_k: FloatArray,
+    cand: _Candidates,
+    d_mid: FloatArray,
+    weight: FloatArray,
+    n_left: int,
+    agree_px: float,
+) -> NDArray[np.bool_]:
+    """Which kept claims survive uniqueness (see the module docstring): a certain claim loses to a
+    stronger claim of another left segment on the same right segment at another disparity."""
+    lsel, rsel = cand.li[sel], cand.rj[sel]
+    survive = np.ones(sel.size, dtype=bool)
+    shared = np.flatnonzero(np.bincount(rsel)[rsel] > 1)
+    if shared.size == 0:
+        return survive
+    single = np.bincount(lsel, minlength=n_left)[lsel[shared]] == 1
+    if not single.any():
+        return survive
+    x = shared[single]  # certain claims on shared right segments: the ones that can lose
+    r, owner, d, a, w = (
+        rsel[shared],
+        lsel[shared],
+        d_mid[sel[shared]],
+        a_k[shared],
+        weight[sel[shared]],
+    )
+    rx, ox, dx, ax, wx = r[single], owner[single], d[single], a[single], w[single]
+    loses = (
+        (rx[:, None] == r)
+        & (ox[:, None] != owner)
+        & (np.abs(dx[:, None] - d) > agree_px)
+        & ((a > ax[:, None]) | ((a == ax[:, None]) & (w > wx[:, None])))
+    ).any(axis=1)
+    survive[x[loses]] = False
+    return survive
+
+
+def match_candidates(
+    left: ImageSegments,
+    right: ImageSegments,
+    rig: StereoRig,
+    *,
+    min_overlap_frac: float = 0.5,
+    min_overlap_px: float = 8.0,
+    max_angle_diff_deg: float = 8.0,
+    allow_opposite: bool = True,
+    max_grey_diff: float = 15.0,
+    max_near_grey_diff: float = 10.0,
+    agree_px: float = 2.5,
+) -> MatchCandidates:
+    """The candidate pairs ``match_segments`` decides among (constraints only, no histogram).
+
+    Args:
+        left: Segments of the left (reference) image.
+        right: Segments of the right image.
+        rig: The stereo rig (disparity range).
+        min_overlap_frac: As in ``match_segments``.
+        min_overlap_px: As in ``match_segments``.
+        max_angle_diff_deg: As in ``match_segments``.
+        allow_opposite: As in ``match_segments``.
+        max_grey_diff: As in ``match_segments``.
+        max_near_grey_diff: As in ``match_segments``.
+        agree_px: As in ``match_segments`` (it widens the disparity range).
+
+    Returns:
+        Every pair passing the epipolar, direction, photometric and disparity-range constraints,
+        with the same defaults as ``match_segments``.
+
+    Raises:
+        ValueError: ``left``/``right`` are not ``ImageSegments``, ``rig`` is not a ``StereoRig``,
+            or an option is out of range.
+    """
+    left = _check_segments(left, "left")
+    right = _check_segments(right, "right")
+    rig = _check_rig(rig)
+    _check_constraint_options(
+        min_overlap_frac,
+        min_overlap_px,
+        max_angle_diff_deg,
+        max_grey_diff,
+        max_near_grey_diff,
+        agree_px,
+    )
+    cand = _candidates(
+        left,
+        right,
+        rig,
+        min_overlap_frac=min_overlap_frac,
+        min_overlap_px=min_overlap_px,
+        max_angle_diff_deg=max_angle_diff_deg,
+        allow_opposite=allow_opposite,
+        max_grey_diff=max_grey_diff,
+        max_near_grey_diff=max_near_grey_diff,
+        margin_px=agree_px,
+    )
+    if cand is None:
+        return MatchCandidates(
+            left_index=np.zeros(0, dtype=np.int64),
+            right_index=np.zeros(0, dtype=np.int64),
+            rows_px=np.zeros((0, 2)),
+            disparity_px=np.zeros((0, 2)),
+            opposite_polarity=np.zeros(0, dtype=bool),
+            overlap_px=np.zeros(0),
+        )
+    return MatchCandidates(
+        left_index=cand.li,
+        right_index=cand.rj,
+        rows_px=np.stack([cand.lo, cand.hi], axis=1),
+        disparity_px=np.stack([cand.d_lo, cand.d_hi], axis=1),
+        opposite_polarity=cand.opposite,
+        overlap_px=cand.ov,
+    )
+
+
+def match_segments(
+    left: ImageSegments,
+    right: ImageSegments,
+    rig: StereoRig,
+    *,
+    min_overlap_frac: float = 0.5,
+    min_overlap_px: float = 8.0,
+    max_angle_diff_deg: float = 8.0,
+    allow_opposite: bool = True,
+    opposite_weight: float = 0.5,
+    region_sigma_px: tuple[float, float] = (16.0, 32.0),
+    smooth_px: float = 2.5,
+    rel_peak: float = 0.5,
+    min_peak_sep_px: float = 2.5,
+    agree_px: float = 2.5,
+    sigma_v_px: float = 1.0,
+    max_grey_diff: float = 15.0,
+    max_near_grey_diff: float = 10.0,
+    self_weight: float = 1.0,
+    unique_right: bool = True,
+) -> StereoMatches:
+    """Match left and right segments of a rectified pair (section 3.1, Eq. 1 of section 3.3).
+
+    Args:
+        left: Segments of the left (reference) image.
+        right: Segments of the right image.
+        rig: The stereo rig (disparity range).
+        min_overlap_frac: Smallest vertical overlap of a pair, as a fraction of the shorter row
+            range of the two.
+        min_overlap_px: Smallest vertical overlap, rows.
+        max_angle_diff_deg: Largest difference of the two segments' angles, degrees.
+        allow_opposite: Accept pairs of opposite contrast polarity (occluding edges).
+        opposite_weight: Factor on the histogram weight of an opposite-polarity pair (a contrast
+            reversal is the rarer explanation); in [0, 1].
+        region_sigma_px: ``(sigma_u, sigma_v)`` of the Gaussian that weights neighbouring left
+            segments into a segment's local histogram, px.
+        smooth_px: Standard deviation of the histogram smoothing along disparity, px.
+        rel_peak: A peak is prominent if at least this fraction of the region's highest peak.
+        min_peak_sep_px: Smallest distance between two prominent peaks, px.
+        agree_px: A candidate agrees with a peak within this disparity difference, px.
+        sigma_v_px: Standard deviation of where an overlapping part ends along the edge, px.
+        max_grey_diff: Largest difference of the "far" grey level (3 px from the edge) of a side
+            of the two segments for that side to agree, grey levels (``inf``: no check).
+        max_near_grey_diff: The same for the "near" grey levels (1.5 px from the edge), grey
+            levels (``inf``: no check).
+        self_weight: Weight of a segment's own candidates in its region histogram (neighbours
+            get the Gaussian weight, 1 at zero distance); below 1 favours the neighbours' support.
+        unique_right: Drop certain claims on a right segment that another left segment keeps at
+            another disparity with a higher peak (see the module docstring).
+
+    Returns:
+        The kept pairs with their probabilities; empty if nothing matches.
+
+    Raises:
+        ValueError: ``left``/``right`` are not ``ImageSegments``, ``rig`` is not a ``StereoRig``,
+            or an option is out of range.
+    """
+    left = _check_segments(left, "left")
+    right = _check_segments(right, "right")
+    rig = _check_rig(rig)
+    _check_constraint_options(
+        min_overlap_frac,
+        min_overlap_px,
+        max_angle_diff_deg,
+        max_grey_diff,
+        max_near_grey_diff,
+        agree_px,
+    )
+    if not (0.0 <= opposite_weight <= 1.0):
+        raise ValueError(f"opposite_weight must be in [0, 1], got {opposite_weight!r}")
+    if not (0.0 < rel_peak <= 1.0):
+        raise ValueError(f"rel_peak must be in (0, 1], got {rel_peak!r}")
+    if not (math.isfinite(self_weight) and self_weight >= 0):
+        raise ValueError(f"self_weight must be a non-negative number, got {self_weight!r}")
+    for name, value in (
+        ("smooth_px", smooth_px),
+        ("min_peak_sep_px", min_peak_sep_px),
+        ("sigma_v_px", sigma_v_px),
+    ):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+    su, sv = (float(x) for x in region_sigma_px)
+    if not (math.isfinite(su) and math.isfinite(sv) and su > 0 and sv > 0):
+        raise ValueError(f"region_sigma_px must be two positive numbers, got {region_sigma_px!r}")
+    nL = len(left)
+
+    # ---------------------------------------------------------------- candidates
+    cand = _candidates(
+        left,
+        right,
+        rig,
+        min_overlap_frac=min_overlap_frac,
+        min_overlap_px=min_overlap_px,
+        max_angle_diff_deg=max_angle_diff_deg,
+        allow_opposite=allow_opposite,
+        max_grey_diff=max_grey_diff,
+        max_near_grey_diff=max_near_grey_diff,
+        margin_px=agree_px,
+    )
+    if cand is None:
+        return StereoMatches.empty()
+    li = cand.li
+    n_cand = int(li.size)
+    d_mid = 0.5 * (cand.d_lo + cand.d_hi)
+    weight = cand.ov * np.sqrt(1.0 + left.slope[li] ** 2)  # length of the overlapping part, px
+    hist_weight = np.where(cand.opposite, opposite_weight * weight, weight)
+
+    # ---------------------------------------------------------------- local histograms
+    # each candidate is splatted into its left segment's histogram as a Gaussian of standard
+    # deviation smooth_px (evaluated at the bin centres, unit area), over bins that cover the
+    # candidates' disparities with room for the kernel on both sides
+    sig_bins = smooth_px / _BIN_PX
+    radius = max(1, math.ceil(3.0 * sig_bins))
+    d_base = math.floor(float(d_mid.min())) - (radius + 2) * _BIN_PX
+    nbins = math.ceil((float(d_mid.max()) - d_base) / _BIN_PX) + radius + 3
+    x = (d_mid - d_base) / _BIN_PX
+    bins = np.rint(x).astype(np.int64)[:, None] + np.arange(-radius, radius + 1)
+    z = (bins - x[:, None]) / sig_bins
+    splat = np.exp(-0.5 * z * z) * (hist_weight / (math.sqrt(2.0 * math.pi) * sig_bins))[:, None]
+    # rows of the histogram: the left segments with candidates (li is sorted)
+    new_row = np.empty(n_cand, dtype=bool)
+    new_row[0] = True
+    np.not_equal(li[1:], li[:-1], out=new_row[1:])
+    r = np.cumsum(new_row) - 1
+    rows = li[new_row]
+    nrow = rows.size
+    C = np.bincount(
+        (bins + (r * nbins)[:, None]).ravel(), weights=splat.ravel(), minlength=nrow * nbins
+    ).reshape(nrow, nbins)
+    ends = left.endpoints[rows]
+    mid = 0.5 * (ends[:, 0] + ends[:, 1])
+    du = (mid[:, None, 0] - mid[:, 0]) / su
+    dv = (mid[:, None, 1] - mid[:, 1]) / sv
+    Wreg = np.exp(-0.5 * (du * du + dv * dv))
+    Wreg.flat[:: nrow + 1] = self_weight
+    Hist = Wreg @ C
+    top = Hist.max(axis=1)
+    # a peak: the maximum of its neighbourhood (+-min_peak_sep_px), and the first bin of a flat top
+    half = math.ceil(min_peak_sep_px / _BIN_PX)
+    padded = np.zeros((nrow, nbins + 2 * half))
+    padded[:, half : half + nbins] = Hist
+    local_max = Hist.copy()
+    for shift in range(2 * half + 1):
+        np.maximum(local_max, padded[:, shift : shift + nbins], out=local_max)
+    is_peak = Hist == local_max
+    is_peak[:, 1:] &= Hist[:, 1:] > Hist[:, :-1]
+    is_peak &= (Hist >= rel_peak * top[:, None]) & (Hist > 0)
+    pr, pb = np.nonzero(is_peak)  # sorted by row, then bin
+    # sub-bin peak position by a parabola through the three bins around the peak
+    h0 = Hist[pr, pb]
+    hm = Hist[pr, np.maximum(pb - 1, 0)]
+    hp = Hist[pr, np.minimum(pb + 1, nbins - 1)]
+    # at a maximum h0 >= hm, hp, so |off| <= 0.5 (a flat top, den 0, has hm == hp: off 0)
+    off = 0.5 * (hm - hp) / np.minimum(hm - 2.0 * h0 + hp, -1e-300)
+    peak_pos = d_base + (pb + off) * _BIN_PX
+
+    # ---------------------------------------------------------------- agreement with peaks
+    # the nearest peak of the candidate's own row (keys: row * span + disparity, both sorted;
+    # span exceeds the disparity range by more than agree_px, so other rows never agree)
+    span = nbins * _BIN_PX + 4.0 * agree_px
+    peak_key = pr * span + (peak_pos - d_base)
+    cand_key = r * span + (d_mid - d_base)
+    j_hi = np.minimum(np.searchsorted(peak_key, cand_key), peak_key.size - 1)
+    j_lo = np.maximum(j_hi - 1, 0)
+    dist_hi = np.abs(cand_key - peak_key[j_hi])
+    dist_lo = np.abs(cand_key - peak_key[j_lo])
+    use_lo = dist_lo < dist_hi
+    best_peak = np.where(use_lo, j_lo, j_hi)
+    best_dist = np.where(use_lo, dist_lo, dist_hi)
+    agree = np.flatnonzero(best_dist <= agree_px)
+    if agree.size == 0:
+        return StereoMatches.empty(n_cand)
+    # the closest candidate of each (left segment, peak); ties: the longer overlap
+    order = np.lexsort((-weight[agree], best_dist[agree], best_peak[agree]))
+    agree = agree[order]
+    bp = best_peak[agree]
+    first = np.empty(bp.size, dtype=bool)
+    first[0] = True
+    np.not_equal(bp[1:], bp[:-1], out=first[1:])
+    sel = agree[first]
+    a_k = h0[best_peak[sel]]
+    if unique_right:
+        survive = _exclusive_right(sel, a_k, cand, d_mid, weight, nL, agree_px)
+        sel, a_k = sel[survive], a_k[survive]
+        if sel.size == 0:
+            return StereoMatches.empty(n_cand)
+    # sort by left segment, then decreasing peak height
+    order = np.lexsort((-a_k, li[sel]))
+    sel, a_k = sel[order], a_k[order]
+    lsel = li[sel]
+    total = np.bincount(lsel, weights=a_k, minlength=nL)
+    prob = a_k / total[lsel]
+
+    # ---------------------------------------------------------------- outputs
+    rsel = cand.rj[sel]
+    v_ends = np.stack([cand.lo[sel], cand.hi[sel]], axis=1)
+    lcol = lsel[:, None]
+    u_ends = left.u_at(lcol, v_ends)
+    uvar_l = left.u_var_at(lcol, v_ends)
+    uvar_r = right.u_var_at(rsel[:, None], v_ends)
+    disp = np.stack([cand.d_lo[sel], cand.d_hi[sel]], axis=1)
+    return StereoMatches._trusted(
+        n_cand,
+        left_index=lsel,
+        right_index=rsel,
+        probability=prob,
+        left_endpoints=np.stack([u_ends, v_ends], axis=-1),
+        disparity_px=disp,
+        disparity_var=uvar_l + uvar_r,
+        u_left_var=uvar_l,
+        v_var=np.full(disp.shape, sigma_v_px**2),
+        peak_disparity_px=peak_pos[best_peak[sel]],
+        peak_height=a_k,
+        opposite_polarity=cand.opposite[sel],
+    )

@@ -1,0 +1,486 @@
+"""Straight line segments of one rectified grey image, with uncertainty (sections 3.1-3.2).
+
+Detection uses OpenCV's Line Segment Detector (LSD) on a half-resolution pyramid level (fast, and
+robust to pixel noise; LSD returns (N, 4) in OpenCV 5, (N, 1, 4) in OpenCV 4, or None: the lines
+are always reshaped to (N, 4)). Every detected segment is then *re-localised at full resolution*:
+in each image row it crosses, the sub-pixel column of its edge is found as the parabolic peak of
+the horizontal intensity gradient (central difference, of the segment's own contrast sign) near
+the LSD line, and the horizontal position ``u = u_c + slope * (v - v_c)`` is fitted to those edge
+points by least squares, as in section 3.2 of Miura (ICRA-94). All of this is vectorised over the
+edge points of every segment at once: one gather of a ``(rows, 2 B + 1)`` pixel block around the
+LSD lines serves the gradient, the peak search and the grey levels on both sides.
+
+Uncertainty model (section 3.2, "quantization error"). Each edge point's column is taken as
+``u_i ~ N(a + b v_i, s^2)`` independently, where ``s^2`` is the residual variance of the fit, but at
+least ``sigma_px^2`` (the nominal per-point sigma of the rig, ``StereoRig.sigma_px``: with few
+points, or a perfectly clean edge, the residual says too little). Least squares then gives the
+variance of the fitted column at any row ``v``::
+
+    var_u(v) = s^2 * (1 / n + (v - v_c)^2 / S_vv) + bias_sigma_px^2
+
+The last term is the part of the localisation error that does *not* average out along the segment
+because it is the same in every row: the quantisation of the edge's sub-pixel position by the
+imaging (a rendered edge is anti-aliased with a few samples per pixel, so its position moves in
+steps: 4x multisampling gives steps of 1/4 px, a uniform error of standard deviation
+``0.25 / sqrt(12) = 0.072`` px), and for a real camera the residual rectification error (typically
+0.1 px). The default ``bias_sigma_px = 0.1`` covers both; it was checked against ground truth on the
+project's rendered scenes (``scripts/bench_stereo.py``: vertical obstacle edges, robust standard
+deviation of the column error 0.10 px, of the disparity error 0.12 px). Use ``1 / sqrt(12)``
+(0.29 px) for an imager *without* anti-aliasing, whose edges snap to whole pixels.
+
+Near-horizontal segments are **dropped**: the epipolar lines of a rectified pair are image rows, so
+a segment's disparity is undefined (or badly conditioned) when it runs along a row. Segments whose
+angle to the image rows is below ``min_angle_deg`` are discarded before fitting.
+
+For the matcher's photometric checks, each segment also carries the mean grey level on both sides
+of its edge points at two distances: ``side_px`` (3 px, "far") and ``near_px`` (1.5 px, "near",
+linearly interpolated along the row).
+
+Image frame: pixels, u right, v down, (0, 0) the centre of the top-left pixel.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+from numpy.typing import NDArray
+
+from modeling._validation import FloatArray
+
+__all__ = ["ImageSegments", "extract_segments"]
+
+IntArray = NDArray[np.int64]
+
+# one detector per thread and scale: an OpenCV LSD object keeps working buffers between calls
+_LSD_LOCAL = threading.local()
+
+_MAX_SEARCH_PX = 4
+_MAX_SIDE_PX = 4
+
+
+def _lsd(scale: float) -> cv2.LineSegmentDetector:
+    cache: dict[float, cv2.LineSegmentDetector] = _LSD_LOCAL.__dict__.setdefault("by_scale", {})
+    det = cache.get(scale)
+    if det is None:
+        det = cv2.createLineSegmentDetector(cv2.LSD_REFINE_NONE, scale)
+        cache[scale] = det
+    return det
+
+
+def _readonly(arr: np.ndarray) -> np.ndarray:
+    arr.setflags(write=False)
+    return arr
+
+
+_FIELDS: tuple[tuple[str, type], ...] = (
+    ("u_center", np.float64),
+    ("v_center", np.float64),
+    ("slope", np.float64),
+    ("point_var", np.float64),
+    ("n_points", np.int64),
+    ("s_vv", np.float64),
+    ("bias_var", np.float64),
+    ("polarity", np.int8),
+    ("contrast", np.float64),
+    ("grey_left", np.float64),
+    ("grey_right", np.float64),
+    ("grey_left_near", np.float64),
+    ("grey_right_near", np.float64),
+)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class ImageSegments:
+    """Line segments of one image and the least-squares fit of their horizontal position.
+
+    All arrays have one row per segment (``n`` segments, possibly zero). Pixels, image frame. The
+    arrays are read-only.
+
+    Attributes:
+        endpoints: (n, 2, 2) ``[[u0, v0], [u1, v1]]`` px, ordered top to bottom (``v0 <= v1``);
+            the fitted line evaluated at the first and last row with edge points.
+        u_center: (n,) fitted column at ``v_center``, px.
+        v_center: (n,) mean row of the edge points, px.
+        slope: (n,) ``du/dv`` of the fitted line (0 for a vertical segment).
+        point_var: (n,) per-edge-point variance of the column, px^2 (residual, at least
+            ``sigma_px^2``).
+        n_points: (n,) number of edge points in the fit.
+        s_vv: (n,) ``sum (v_i - v_center)^2`` of the edge points, px^2.
+        bias_var: (n,) correlated (non-averaging) variance of the column, px^2.
+        polarity: (n,) ``+1`` where the image is brighter on the right of the segment (intensity
+            increases with u), ``-1`` where it is darker on the right.
+        contrast: (n,) mean absolute horizontal gradient at the edge points, grey levels per px.
+        grey_left: (n,) mean intensity ``side_px`` columns left of the edge points, grey levels.
+        grey_right: (n,) mean intensity ``side_px`` columns right of the edge points.
+        grey_left_near: (n,) mean intensity ``near_px`` left of the edge points (interpolated);
+            ``grey_left`` if not given.
+        grey_right_near: (n,) mean intensity ``near_px`` right of the edge points; ``grey_right``
+            if not given.
+        image_shape: ``(height_px, width_px)`` of the image.
+    """
+
+    endpoints: FloatArray
+    u_center: FloatArray
+    v_center: FloatArray
+    slope: FloatArray
+    point_var: FloatArray
+    n_points: IntArray
+    s_vv: FloatArray
+    bias_var: FloatArray
+    polarity: NDArray[np.int8]
+    contrast: FloatArray
+    grey_left: FloatArray
+    grey_right: FloatArray
+    grey_left_near: FloatArray | None = None
+    grey_right_near: FloatArray | None = None
+    image_shape: tuple[int, int] = field(default=(0, 0))
+
+    def __post_init__(self) -> None:
+        ends = np.asarray(self.endpoints, dtype=np.float64)
+        if ends.ndim != 3 or ends.shape[1:] != (2, 2):
+            raise ValueError(f"endpoints must have shape (n, 2, 2), got {ends.shape}")
+        n = ends.shape[0]
+        object.__setattr__(self, "endpoints", _readonly(ends))
+        if self.grey_left_near is None:
+            object.__setattr__(self, "grey_left_near", self.grey_left)
+        if self.grey_right_near is None:
+            object.__setattr__(self, "grey_right_near", self.grey_right)
+        for name, dtype in _FIELDS:
+            arr = np.asarray(getattr(self, name), dtype=dtype)
+            if arr.shape != (n,):
+                raise ValueError(f"{name} must have shape ({n},), got {arr.shape}")
+            object.__setattr__(self, name, _readonly(arr))
+        if ends.size and np.any(ends[:, 0, 1] > ends[:, 1, 1]):
+            raise ValueError("endpoints must be ordered top to bottom (v0 <= v1)")
+        shape = tuple(int(s) for s in self.image_shape)
+        if len(shape) != 2:
+            raise ValueError(f"image_shape must be (height, width), got {self.image_shape!r}")
+        object.__setattr__(self, "image_shape", shape)
+
+    @classmethod
+    def _trusted(cls, image_shape: tuple[int, int], **arrays: np.ndarray) -> ImageSegments:
+        """Built from arrays that ``extract_segments`` has produced with the right shapes and
+        dtypes: skips the conversions and checks of ``__post_init__`` (they would cost a tenth of
+        the extraction)."""
+        obj = object.__new__(cls)
+        for name, arr in arrays.items():
+            object.__setattr__(obj, name, _readonly(arr))
+        object.__setattr__(obj, "image_shape", image_shape)
+        return obj
+
+    def __len__(self) -> int:
+        return int(self.endpoints.shape[0])
+
+    @classmethod
+    def empty(cls, image_shape: tuple[int, int] = (0, 0)) -> ImageSegments:
+        """No segments."""
+        arrays = {name: np.zeros(0, dtype=dtype) for name, dtype in _FIELDS}
+        return cls(endpoints=np.zeros((0, 2, 2)), image_shape=image_shape, **arrays)
+
+    @property
+    def length(self) -> FloatArray:
+        """(n,) length of each segment, px."""
+        return np.linalg.norm(self.endpoints[:, 1] - self.endpoints[:, 0], axis=-1)
+
+    @property
+    def angle_rad(self) -> FloatArray:
+        """(n,) angle of each segment from the image vertical, radians, ``atan(du/dv)``."""
+        return np.arctan(self.slope)
+
+    def u_at(self, index: IntArray, v: FloatArray) -> FloatArray:
+        """Fitted column of segments ``index`` at rows ``v`` (same broadcastable shapes), px."""
+        return self.u_center[index] + self.slope[index] * (v - self.v_center[index])
+
+    def u_var_at(self, index: IntArray, v: FloatArray) -> FloatArray:
+        """Variance of the fitted column of segments ``index`` at rows ``v``, px^2."""
+        dv = v - self.v_center[index]
+        return (
+            self.point_var[index] * (1.0 / self.n_points[index] + dv * dv / self.s_vv[index])
+            + self.bias_var[index]
+        )
+
+
+def _check_gray(gray: object) -> NDArray[np.uint8]:
+    if not isinstance(gray, np.ndarray):
+        raise ValueError(f"gray must be a numpy array, got {type(gray).__name__}")
+    if gray.dtype != np.uint8:
+        raise ValueError(f"gray must have dtype uint8, got {gray.dtype}")
+    if gray.ndim != 2:
+        raise ValueError(f"gray must have shape (H, W), got {gray.shape}")
+    if gray.shape[0] < 8 or gray.shape[1] < 8:
+        raise ValueError(f"gray must be at least 8x8 pixels, got {gray.shape}")
+    return np.ascontiguousarray(gray)
+
+
+def _check_options(
+    sigma_px: float,
+    bias_sigma_px: float,
+    min_length_px: float,
+    min_angle_deg: float,
+    min_gradient: float,
+    lsd_scale: float,
+    search_px: int,
+    trim_px: int,
+    side_px: int,
+    near_px: float,
+) -> None:
+    for name, value in (
+        ("sigma_px", sigma_px),
+        ("min_length_px", min_length_px),
+        ("lsd_scale", lsd_scale),
+    ):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+    if not (math.isfinite(bias_sigma_px) and bias_sigma_px >= 0):
+        raise ValueError(f"bias_sigma_px must be a non-negative number, got {bias_sigma_px!r}")
+    if not (math.isfinite(min_gradient) and min_gradient >= 0):
+        raise ValueError(f"min_gradient must be a non-negative number, got {min_gradient!r}")
+    if not (0.0 <= min_angle_deg < 90.0):
+        raise ValueError(f"min_angle_deg must be in [0, 90), got {min_angle_deg!r}")
+    if lsd_scale > 1.0:
+        raise ValueError(f"lsd_scale must be in (0, 1], got {lsd_scale!r}")
+    if int(search_px) != search_px or not (1 <= search_px <= _MAX_SEARCH_PX):
+        raise ValueError(
+            f"search_px must be an integer in [1, {_MAX_SEARCH_PX}], got {search_px!r}"
+        )
+    if int(trim_px) != trim_px or trim_px < 0:
+        raise ValueError(f"trim_px must be a non-negative integer, got {trim_px!r}")
+    if int(side_px) != side_px or not (1 <= side_px <= _MAX_SIDE_PX):
+        raise ValueError(f"side_px must be an integer in [1, {_MAX_SIDE_PX}], got {side_px!r}")
+    if not (0.5 <= near_px <= _MAX_SIDE_PX - 1):
+        raise ValueError(f"near_px must be in [0.5, {_MAX_SIDE_PX - 1}], got {near_px!r}")
+
+
+def extract_segments(
+    gray: NDArray[np.uint8],
+    *,
+    sigma_px: float = 0.5,
+    bias_sigma_px: float = 0.1,
+    min_length_px: float = 12.0,
+    min_angle_deg: float = 25.0,
+    min_gradient: float = 5.0,
+    lsd_scale: float = 0.5,
+    search_px: int = 3,
+    trim_px: int = 2,
+    side_px: int = 3,
+    near_px: float = 1.5,
+) -> ImageSegments:
+    """Straight segments of a grey image, each with a least-squares horizontal position.
+
+    Args:
+        gray: (H, W) uint8 image (rectified), at least 8x8 pixels.
+        sigma_px: Nominal standard deviation of one edge point's column, px; the lower bound of the
+            per-point sigma (used in place of the fit residual when that is smaller). The rig's
+            ``sigma_px``.
+        bias_sigma_px: Standard deviation of the column error common to all edge points of a
+            segment (sub-pixel quantisation of the edge by the imaging, rectification), px; added
+            to the fitted variance. See the module docstring for the default.
+        min_length_px: Segments shorter than this (after fitting) are dropped, px.
+        min_angle_deg: Segments at less than this angle to the image rows are dropped (their
+            disparity is ill-defined along the epipolar lines), degrees.
+        min_gradient: Smallest horizontal gradient (grey levels per px, central difference) that
+            counts as an edge point.
+        lsd_scale: Scale at which LSD detects segments, in (0, 1] (0.5: half resolution, faster
+            and less sensitive to noise; positions are re-fitted at full resolution).
+        search_px: Half-width of the per-row search window around the LSD line, px (1 to 4).
+        trim_px: Rows this close to a detected endpoint are not used (corners blur them), px.
+        side_px: Distance from the edge at which the "far" grey level of each side is sampled,
+            px (1 to 4).
+        near_px: Distance from the edge at which the "near" grey level of each side is sampled
+            (linear interpolation along the row), px (0.5 to 3).
+
+    Returns:
+        The segments; empty when none is found (blank image, pure noise).
+
+    Raises:
+        ValueError: ``gray`` is not a 2-D uint8 array of at least 8x8 pixels, or an option is out
+            of range.
+    """
+    img = _check_gray(gray)
+    _check_options(
+        sigma_px,
+        bias_sigma_px,
+        min_length_px,
+        min_angle_deg,
+        min_gradient,
+        lsd_scale,
+        search_px,
+        trim_px,
+        side_px,
+        near_px,
+    )
+    H, W = img.shape
+    shape = (H, W)
+
+    if lsd_scale == 0.5:
+        # one pyramid level (cv2.pyrDown: 5x5 Gaussian, every other pixel) and LSD at scale 1 on
+        # it: about 0.15 ms faster per image than LSD's own Gaussian resampling at 0.5, with as
+        # many segments and the same accuracy on the benchmark (positions are re-fitted anyway)
+        raw = _lsd(1.0).detect(cv2.pyrDown(img))[0]
+        to_full = 2.0
+    else:
+        raw = _lsd(float(lsd_scale)).detect(img)[0]
+        to_full = 1.0
+    if raw is None:
+        return ImageSegments.empty(shape)
+    # OpenCV 4 returns (N, 1, 4), OpenCV 5 (N, 4): always flatten to (N, 4)
+    lines = np.asarray(raw, dtype=np.float64).reshape(-1, 4) * to_full
+    # order each segment top -> bottom
+    swap = lines[:, 1] > lines[:, 3]
+    lines[swap] = lines[swap][:, [2, 3, 0, 1]]
+    x0, y0, x1, y1 = lines.T
+    dv = y1 - y0
+    length = np.hypot(x1 - x0, dv)
+    sin_min = math.sin(math.radians(min_angle_deg))
+    # rows each segment crosses (trimmed at both ends)
+    r0 = np.maximum(np.ceil(y0).astype(np.int64) + trim_px, 1)
+    r1 = np.minimum(np.floor(y1).astype(np.int64) - trim_px, H - 2)
+    keep = np.flatnonzero(
+        (length >= min_length_px) & (dv > 0) & (dv >= sin_min * length) & (r1 >= r0 + 2)
+    )
+    nseg = keep.size
+    if nseg == 0:
+        return ImageSegments.empty(shape)
+    x0, y0, r0, r1 = x0[keep], y0[keep], r0[keep], r1[keep]
+    inv_slope = (x1[keep] - x0) / dv[keep]  # du/dv of the LSD line
+
+    # ------------------------------------------------------------ edge points, one per row
+    counts = r1 - r0 + 1
+    total = int(counts.sum())
+    seg = np.repeat(np.arange(nseg), counts)
+    starts = np.cumsum(counts) - counts
+    rows = np.arange(total) + np.repeat(r0 - starts, counts)
+    u_line = (x0 - inv_slope * y0)[seg] + inv_slope[seg] * rows  # the LSD line in each row
+    # a (total, 2 * B + 1) block of pixels around the LSD line in each row, columns
+    # c_pred - B .. c_pred + B, from a replicate-padded copy (B covers the gradient window, the
+    # peak's neighbours and the side samples)
+    B = search_px + max(side_px, math.ceil(near_px) + 1)
+    nb = 2 * B + 1
+    c_pred = np.minimum(np.maximum(np.rint(u_line).astype(np.int64), -B), W - 1 + B)
+    pad = cv2.copyMakeBorder(img, 0, 0, 2 * B, 2 * B, cv2.BORDER_REPLICATE)
+    blk = sliding_window_view(pad, nb, axis=1)[rows, c_pred + B].astype(np.float32)
+    # central-difference gradient at offsets -search_px - 1 .. search_px + 1 from c_pred
+    lo = B - search_px - 1
+    nwin = 2 * search_px + 1
+    g = blk[:, lo + 1 : lo + nwin + 3] - blk[:, lo - 1 : lo + nwin + 1]
+    g *= 0.5
+
+    # polarity of each segment: sign of the gradient summed over its windows (the sum of central
+    # differences over a window telescopes to the two pairs of pixels at its ends)
+    row_sum = (
+        blk[:, B + search_px + 1]
+        + blk[:, B + search_px]
+        - blk[:, B - search_px]
+        - blk[:, B - search_px - 1]
+    )
+    polarity = np.where(np.add.reduceat(row_sum, starts) >= 0, 1, -1).astype(np.int8)
+    g *= polarity[seg].astype(np.float32)[:, None]  # the gradient of the segment's own sign
+    k = np.argmax(g[:, 1 : 1 + nwin], axis=1)  # window offsets -search_px .. +search_px
+    base = np.arange(total) * (nwin + 2) + k + 1
+    gk = g.ravel()
+    peak = gk[base]
+    gm = gk[base - 1]
+    gp = gk[base + 1]
+    # parabola vertex; at an interior maximum |off| <= 0.5 (a flat top, denom 0, gives gm == gp)
+    off = 0.5 * (gm - gp) / np.minimum(gm - 2.0 * peak + gp, -1e-12)
+    col = c_pred + k  # integer column of the peak, plus search_px
+    idx_v = np.flatnonzero(
+        (k > 0)
+        & (k < nwin - 1)
+        & (peak >= min_gradient)
+        & (col > search_px)
+        & (col < W - 1 + search_px)
+    )
+    if idx_v.size == 0:
+        return ImageSegments.empty(shape)
+    seg_v = seg[idx_v]
+    rel_u = (k[idx_v] - search_px) + off[idx_v].astype(np.float64)  # edge column - c_pred
+    nv = idx_v.size
+
+    # ------------------------------------------------------------ per-point quantities
+    # rows of X: 1, v, u, v^2, v u, u^2 (v relative to the segment's first trimmed row, u to the
+    # LSD line: small numbers), peak gradient, far and near grey levels left and right
+    X = np.empty((11, nv))
+    X[0] = 1.0
+    r_v = rows[idx_v]
+    np.subtract(r_v, r0[seg_v], out=X[1])
+    np.add(rel_u, (c_pred - u_line)[idx_v], out=X[2])
+    np.multiply(X[1], X[1], out=X[3])
+    np.multiply(X[1], X[2], out=X[4])
+    np.multiply(X[2], X[2], out=X[5])
+    X[6] = peak[idx_v]
+    # grey levels from the same block: far at an integer offset from the rounded edge column,
+    # near by linear interpolation at +-near_px
+    flat = blk.ravel()
+    row0 = idx_v * nb + B
+    X[7:9] = flat[row0 + np.rint(rel_u).astype(np.int64) + np.array([[-side_px], [side_px]])]
+    x = rel_u + np.array([[-near_px], [near_px]])  # (2, nv) columns of the near samples
+    fx = np.floor(x)
+    i = row0 + fx.astype(np.int64)
+    w = x - fx
+    X[9:11] = flat[i] * (1.0 - w) + flat[i + 1] * w
+
+    # ------------------------------------------------------------ least squares per segment
+    # the edge points of a segment are contiguous: np.add.reduceat over the first index of each
+    # segment that has any gives the per-segment sums
+    n_int = np.bincount(seg_v, minlength=nseg)
+    ends_i = np.cumsum(n_int)
+    has = np.flatnonzero(n_int)
+    S = np.zeros((nseg, 11))
+    S[has] = np.add.reduceat(X, (ends_i - n_int)[has], axis=1).T
+    n = S[:, 0]
+    safe_n = np.maximum(n, 1.0)
+    mv = S[:, 1] / safe_n
+    mu = S[:, 2] / safe_n
+    svv = S[:, 3] - n * mv * mv
+    suv = S[:, 4] - n * mv * mu
+    suu = S[:, 5] - n * mu * mu
+    ok = (n >= 3) & (svv > 1e-9)
+    safe_svv = np.where(ok, svv, 1.0)
+    b = suv / safe_svv  # slope relative to the LSD line
+    rss = np.maximum(suu - b * suv, 0.0)
+    point_var = np.maximum(rss / np.maximum(n - 2.0, 1.0), sigma_px**2)
+    slope = inv_slope + b
+    vc = r0 + mv  # mean row of the edge points
+    uc = x0 + inv_slope * (vc - y0) + mu  # fitted column there (the LSD line plus the mean offset)
+    grey = S[:, 6:] / safe_n[:, None]  # contrast, grey_left, grey_right, near_left, near_right
+
+    # first and last row with edge points (edge points are in ascending rows within a segment)
+    last = np.maximum(ends_i - 1, 0)
+    first = np.minimum(ends_i - n_int, idx_v.size - 1)
+    v0 = r_v[first].astype(np.float64)
+    v1 = r_v[last].astype(np.float64)
+    u0 = uc + slope * (v0 - vc)
+    u1 = uc + slope * (v1 - vc)
+    seg_len = np.hypot(u1 - u0, v1 - v0)
+    ok &= (v1 > v0) & (seg_len >= min_length_px) & ((v1 - v0) >= sin_min * seg_len)
+    sel = np.flatnonzero(ok)
+    if sel.size == 0:
+        return ImageSegments.empty(shape)
+    endpoints = np.empty((sel.size, 2, 2))
+    endpoints[:, 0, 0] = u0[sel]
+    endpoints[:, 0, 1] = v0[sel]
+    endpoints[:, 1, 0] = u1[sel]
+    endpoints[:, 1, 1] = v1[sel]
+    return ImageSegments._trusted(
+        shape,
+        endpoints=endpoints,
+        u_center=uc[sel],
+        v_center=vc[sel],
+        slope=slope[sel],
+        point_var=point_var[sel],
+        n_points=n_int[sel].astype(np.int64),
+        s_vv=svv[sel],
+        bias_var=np.full(sel.size, float(bias_sigma_px) ** 2),
+        polarity=polarity[sel],
+        contrast=grey[sel, 0],
+        grey_left=grey[sel, 1],
+        grey_right=grey[sel, 2],
+        grey_left_near=grey[sel, 3],
+        grey_right_near=grey[sel, 4],
+    )

@@ -1,0 +1,291 @@
+"""Triangulation of matched segments, their uncertainty, projection to the floor (sections 2, 3.2).
+
+For every kept match, the two endpoints of the overlapping part ``(u, v, d)`` (left column, row,
+disparity) are triangulated in the left camera frame::
+
+    X = (u - cx) b / d,   Y = (v - cy) b / d,   Z = f b / d
+
+and their covariance is propagated by linearisation, ``Sigma_P = J S J^T`` with ``J`` the Jacobian
+of ``(X, Y, Z)`` with respect to ``(u, d, v)`` and ``S`` the covariance of ``(u, d, v)`` (``var u``,
+``var d = var u_left + var u_right``, ``cov(u, d) = var u_left``, ``var v``): the depth standard
+deviation grows as ``Z^2 / (f b) * sigma_d``. The points and covariances are then rotated into the
+world frame through the ``HeadPose``.
+
+Height band (section 2): the 3D segment is clipped to ``min_height_m <= z <= max_height_m``. Along
+an image segment the disparity is affine in the row (it is a 3D line), so the row where the segment
+crosses a height has a closed form; the clipped endpoint is re-evaluated there (mean exactly,
+variances by linear interpolation between the two ends, which over-states them slightly). A segment
+with nothing left inside the band is dropped. The floor segment is the ``(x, y)`` part, with the
+full 2x2 covariance of each endpoint.
+
+The head is level, so the floor coordinates depend on ``(X, Z)`` only: the 2x2 floor covariance is
+computed in closed form from the ``(u, d)`` block of ``S`` (equal to the ``(x, y)`` block of the
+world-frame ``R J S J^T R^T``, which ``triangulate_points`` gives in full).
+
+Ambiguity (section 3.3): a left segment with one surviving match gives a ``FloorSegment``; one with
+several gives an ``AmbiguousSegment`` whose probabilities are renormalised over the survivors.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from modeling._validation import FloatArray
+from modeling.matching import StereoMatches
+from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
+from modeling.rig import HeadPose, StereoRig
+
+__all__ = ["triangulate_points", "triangulate_to_floor"]
+
+
+def triangulate_points(
+    u: FloatArray,
+    v: FloatArray,
+    d: FloatArray,
+    var_u: FloatArray,
+    var_d: FloatArray,
+    cov_ud: FloatArray,
+    var_v: FloatArray,
+    rig: StereoRig,
+) -> tuple[FloatArray, FloatArray]:
+    """Left-camera points and their linearised covariance from ``(u, v, d)`` and its covariance.
+
+    Args:
+        u, v, d: (n,) left column, row and disparity, px (``d > 0``).
+        var_u, var_d, cov_ud, var_v: (n,) (co)variances of ``u``, ``d`` and ``v``, px^2; ``v`` is
+            independent of ``u`` and ``d``.
+        rig: The stereo rig.
+
+    Returns:
+        ``(P_cam (n, 3) m, cov_cam (n, 3, 3) m^2)`` in the left camera frame.
+    """
+    b = rig.baseline_m
+    assert rig.cx_px is not None and rig.cy_px is not None
+    inv_d = 1.0 / d
+    xu = (u - rig.cx_px) * b * inv_d
+    yv = (v - rig.cy_px) * b * inv_d
+    Z = rig.fb * inv_d
+    P = np.stack([xu, yv, Z], axis=-1)
+    n = u.shape[0]
+    # J rows: X, Y, Z; columns: u, d, v
+    J = np.zeros((n, 3, 3))
+    J[:, 0, 0] = b * inv_d
+    J[:, 0, 1] = -xu * inv_d
+    J[:, 1, 1] = -yv * inv_d
+    J[:, 1, 2] = b * inv_d
+    J[:, 2, 1] = -Z * inv_d
+    S = np.zeros((n, 3, 3))
+    S[:, 0, 0] = var_u
+    S[:, 0, 1] = S[:, 1, 0] = cov_ud
+    S[:, 1, 1] = var_d
+    S[:, 2, 2] = var_v
+    cov = J @ S @ np.swapaxes(J, 1, 2)
+    return P, cov
+
+
+def _segment(ends: FloatArray, cov: FloatArray, heights: FloatArray, source: int) -> FloorSegment:
+    """A ``FloorSegment`` from read-only views of arrays already checked in bulk (finite, symmetric
+    positive definite): skips the per-segment validation of the constructor, which would cost more
+    than the whole triangulation."""
+    seg = object.__new__(FloorSegment)
+    object.__setattr__(seg, "endpoints", ends)
+    object.__setattr__(seg, "cov", cov)
+    object.__setattr__(seg, "height_m", heights)
+    object.__setattr__(seg, "source", source)
+    return seg
+
+
+def _ambiguous(candidates: tuple[FloorSegment, ...], probs: list[float]) -> AmbiguousSegment:
+    """An ``AmbiguousSegment`` whose probabilities were checked in bulk (positive, sum to 1)."""
+    amb = object.__new__(AmbiguousSegment)
+    object.__setattr__(amb, "candidates", candidates)
+    object.__setattr__(amb, "probabilities", tuple(probs))
+    return amb
+
+
+def _readonly(arr: np.ndarray) -> np.ndarray:
+    arr = np.ascontiguousarray(arr)
+    arr.setflags(write=False)
+    return arr
+
+
+def triangulate_to_floor(
+    matches: StereoMatches,
+    rig: StereoRig,
+    head_pose: HeadPose,
+    *,
+    min_height_m: float = 0.05,
+    max_height_m: float = 1.0,
+    min_probability: float = 1e-6,
+) -> FloorObservation:
+    """Floor segments with endpoint covariances from stereo matches.
+
+    Args:
+        matches: Kept matches (``match_segments``); rows need not be sorted.
+        rig: The stereo rig that took the pair.
+        head_pose: Pose of the left optical centre (level head) in the world.
+        min_height_m: Lowest height above the floor that is kept, m (the floor itself is not an
+            obstacle).
+        max_height_m: Highest height kept, m (the robot's height).
+        min_probability: Candidates below this probability are ignored, in [0, 1). Rows with a
+            non-positive or non-finite disparity, or non-finite endpoints or variances, are
+            ignored too (nothing to triangulate).
+
+    Returns:
+        The observation: unambiguous ``FloorSegment``s (``source`` = left segment index) and
+        ``AmbiguousSegment``s (candidates in decreasing probability), in increasing left segment
+        index; viewpoint ``(x, y, heading)`` of the head, field of view ``rig.hfov_rad`` and range
+        ``rig.max_depth_m``. Endpoint covariances are the ``(x, y)`` block of ``J S J^T`` in the
+        world frame (equal to ``triangulate_points`` rotated to the world).
+
+    Raises:
+        ValueError: wrong argument types, non-finite heights, ``min_height_m >= max_height_m`` or
+            ``min_probability`` outside [0, 1).
+    """
+    if not isinstance(matches, StereoMatches):
+        raise ValueError(f"matches must be a StereoMatches, got {type(matches).__name__}")
+    if not isinstance(rig, StereoRig):
+        raise ValueError(f"rig must be a StereoRig, got {type(rig).__name__}")
+    if not isinstance(head_pose, HeadPose):
+        raise ValueError(f"head_pose must be a HeadPose, got {type(head_pose).__name__}")
+    if not (math.isfinite(min_height_m) and math.isfinite(max_height_m)):
+        raise ValueError("min_height_m and max_height_m must be finite")
+    if min_height_m >= max_height_m:
+        raise ValueError(
+            f"min_height_m ({min_height_m}) must be below max_height_m ({max_height_m})"
+        )
+    if not (0.0 <= min_probability < 1.0):
+        raise ValueError(f"min_probability must be in [0, 1), got {min_probability!r}")
+    viewpoint = np.array([head_pose.x_m, head_pose.y_m, head_pose.heading_rad])
+
+    def observation(
+        segments: tuple[FloorSegment, ...] = (), ambiguous: tuple[AmbiguousSegment, ...] = ()
+    ) -> FloorObservation:
+        return FloorObservation(
+            segments=segments,
+            ambiguous=ambiguous,
+            viewpoint=viewpoint,
+            fov_rad=rig.hfov_rad,
+            max_range_m=rig.max_depth_m,
+        )
+
+    # usable rows: probable enough, in front of the camera (positive disparity), finite (a NaN or
+    # an infinity anywhere in a row makes the row's sum non-finite)
+    d_all = matches.disparity_px
+    row_sum = (
+        d_all.sum(axis=1)
+        + matches.left_endpoints.sum(axis=(1, 2))
+        + matches.u_left_var.sum(axis=1)
+        + matches.disparity_var.sum(axis=1)
+    )
+    idx = np.flatnonzero(
+        (matches.probability >= min_probability) & (d_all.min(axis=1) > 0) & np.isfinite(row_sum)
+    )
+    if idx.size == 0:
+        return observation()
+    ends = matches.left_endpoints[idx]
+    u_e, v_e = ends[:, :, 0], ends[:, :, 1]  # (k, 2) each
+    d_e = matches.disparity_px[idx]
+    b = rig.baseline_m
+    H = head_pose.height_m
+    cy = rig.cy_px
+    assert rig.cx_px is not None and cy is not None
+
+    # --- clip to the height band: along the segment (t in [0, 1] from the top end) the row and the
+    # disparity are affine, so the height h(t) = H - (v(t) - cy) b / d(t) is monotonic and crosses a
+    # given height at t = (k d0 - (v0 - cy) b) / (dv b - k dd), k = H - height
+    v0, d0 = v_e[:, 0], d_e[:, 0]
+    dv = v_e[:, 1] - v0
+    dd = d_e[:, 1] - d0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h = H - (v_e - cy) * b / d_e  # (k, 2) heights of the two ends
+        k_top = H - max_height_m
+        k_bot = H - min_height_m
+        t_top = (k_top * d0 - (v0 - cy) * b) / (dv * b - k_top * dd)
+        t_bot = (k_bot * d0 - (v0 - cy) * b) / (dv * b - k_bot * dd)
+    h0, h1 = h[:, 0], h[:, 1]
+    falling = h0 >= h1  # the usual case: the height drops as the row increases
+    t_lo = np.where(falling, np.where(h0 > max_height_m, t_top, 0.0), 0.0)
+    t_lo = np.where(~falling & (h0 < min_height_m), t_bot, t_lo)
+    t_hi = np.where(falling, np.where(h1 < min_height_m, t_bot, 1.0), 1.0)
+    t_hi = np.where(~falling & (h1 > max_height_m), t_top, t_hi)
+    t_lo = np.minimum(np.maximum(t_lo, 0.0), 1.0)
+    t_hi = np.minimum(np.maximum(t_hi, 0.0), 1.0)
+    alive = (
+        np.all(np.isfinite(h), axis=1)
+        & (np.maximum(h0, h1) >= min_height_m)
+        & (np.minimum(h0, h1) <= max_height_m)
+        & np.isfinite(t_lo)
+        & np.isfinite(t_hi)
+        & ((t_hi > t_lo) | (dv <= 0))
+    )
+    sel = np.flatnonzero(alive)
+    if sel.size == 0:
+        return observation()
+    idx = idx[sel]
+    T = np.stack([t_lo[sel], t_hi[sel]], axis=1)  # (k, 2)
+
+    def lerp(a: FloatArray) -> FloatArray:  # (k, 2) end values -> (k, 2) at the clipped ends
+        return a[:, :1] + (a[:, 1:] - a[:, :1]) * T
+
+    u = lerp(u_e[sel])
+    v = lerp(v_e[sel])
+    d = lerp(d_e[sel])
+    var_u = lerp(matches.u_left_var[idx])
+    var_d = lerp(matches.disparity_var[idx])
+    # (u, d) -> camera (X, Z); v only moves Y, the height, which the floor does not see
+    inv_d = 1.0 / d
+    bd = b * inv_d
+    X = (u - rig.cx_px) * bd
+    Z = rig.fb * inv_d
+    xd = X * inv_d
+    zd = Z * inv_d
+    # J = [[b/d, -X/d], [0, -Z/d]] on (u, d); S = [[var_u, var_u], [var_u, var_d]] (cov(u, d) =
+    # var u_left since d = u_left - u_right)
+    s_xx = bd * bd * var_u - 2.0 * bd * xd * var_u + xd * xd * var_d
+    s_xz = -bd * zd * var_u + xd * zd * var_d
+    s_zz = zd * zd * var_d
+    # camera (X, Z) -> world (x, y) of a level head: x = x0 + s X + c Z, y = y0 - c X + s Z
+    c, s = math.cos(head_pose.heading_rad), math.sin(head_pose.heading_rad)
+    xy = np.empty((*u.shape, 2))
+    xy[..., 0] = head_pose.x_m + s * X + c * Z
+    xy[..., 1] = head_pose.y_m - c * X + s * Z
+    cov = np.empty((*u.shape, 2, 2))
+    cov[..., 0, 0] = s * s * s_xx + 2.0 * s * c * s_xz + c * c * s_zz
+    cov[..., 1, 1] = c * c * s_xx - 2.0 * s * c * s_xz + s * s * s_zz
+    cov[..., 0, 1] = cov[..., 1, 0] = -s * c * s_xx + (s * s - c * c) * s_xz + s * c * s_zz
+    heights = H - (v - cy) * bd
+    det = cov[..., 0, 0] * cov[..., 1, 1] - cov[..., 0, 1] ** 2
+    # finite by construction (finite inputs, d > 0); a degenerate covariance (zero variances) is
+    # not a normal distribution: such rows are dropped
+    good = np.flatnonzero(((cov[..., 0, 0] > 0) & (det > 0)).all(axis=1))
+    if good.size == 0:
+        return observation()
+    # group the rows of each left segment, the most probable candidate first
+    left_idx = matches.left_index[idx[good]]
+    prob = matches.probability[idx[good]]
+    order = np.lexsort((-prob, left_idx))
+    rows = good[order]
+    gl = left_idx[order]
+    gp = prob[order]
+    xy = _readonly(xy)
+    cov = _readonly(cov)
+    heights = _readonly(heights)
+    starts = [0, *(np.flatnonzero(gl[1:] != gl[:-1]) + 1).tolist()]
+    stops = [*starts[1:], gl.size]
+    rows_l = rows.tolist()
+    gl_l = gl.tolist()
+    segments: list[FloorSegment] = []
+    ambiguous: list[AmbiguousSegment] = []
+    for a, z in zip(starts, stops, strict=True):
+        src = gl_l[a]
+        if z - a == 1:
+            r = rows_l[a]
+            segments.append(_segment(xy[r], cov[r], heights[r], src))
+            continue
+        p = gp[a:z]
+        cands = tuple(_segment(xy[r], cov[r], heights[r], src) for r in rows_l[a:z])
+        ambiguous.append(_ambiguous(cands, (p / p.sum()).tolist()))
+    return observation(tuple(segments), tuple(ambiguous))
