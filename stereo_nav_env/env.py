@@ -1,14 +1,15 @@
-"""The Gymnasium environment: a thin orchestrator of scene, world and stereo renderer.
+"""The Gymnasium environments ``StereoNav-v0`` and ``StereoNavDiscrete-v0``: a thin orchestrator.
 
-This first version (issue 2) has a small observation and a simple reward; the full observation of
-ARCHITECTURE.md (situations, critical regions, raster) and the modeling pipeline come later.
+Each step: the physics advances and the head pans (:mod:`.world`), the stereo pair is rendered
+(:mod:`.render`) with pixel noise from ``np_random``, the modeling pipeline runs
+(:mod:`.perception`), the observation is packed (:mod:`.observation`, :mod:`.raster`), the reward
+is computed (:mod:`.rewards`, :mod:`.geodesic`) and the model is compared with the truth
+(:mod:`.diagnostics`). ``render()`` draws with :mod:`.viewer`. Configuration: :mod:`.config`.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
@@ -16,159 +17,160 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
+from modeling.model import EnvironmentModel
 from modeling.rig import HeadPose, StereoRig
+from stereo_nav_env.actions import DISCRETE_ACTIONS, continuous_command, discrete_command
+from stereo_nav_env.config import EnvConfig
+from stereo_nav_env.diagnostics import GroundTruth, model_diagnostics
+from stereo_nav_env.geodesic import GeodesicField
+from stereo_nav_env.observation import goal_features, observation_space, pack_model
+from stereo_nav_env.perception import Stopwatch, add_pixel_noise, draw_pixel_noise, perceive
 from stereo_nav_env.render import StereoRenderer
-from stereo_nav_env.scenes import FAMILIES, Scene, available_maps, load_scenario
-from stereo_nav_env.world import World, WorldConfig
+from stereo_nav_env.rewards import reward_components
+from stereo_nav_env.scenes import Scene, load_scenario
+from stereo_nav_env.viewer import MapView, draw_background, draw_frame
+from stereo_nav_env.world import World
 
-__all__ = ["EnvConfig", "StereoNavEnv"]
+__all__ = ["StereoNavDiscreteEnv", "StereoNavEnv"]
 
-GOAL_RANGE_M = 100.0  # bound of the goal observation (metres); scenes are far smaller
+UInt8Image = NDArray[np.uint8]
+Obs = dict[str, NDArray[Any]]
 
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class EnvConfig:
-    """Configuration of :class:`StereoNavEnv`; ``gym.make`` keyword arguments map onto it.
-
-    Attributes:
-        scenario: A bundled map name (``"default"``, ``"two_gaps"``), a path to a ``.json`` map, a
-            generator family (``"room"``, ``"corridor"``, ``"cluttered"``, ``"office"``: a new scene
-            from the env's generator at every reset) or ``"random"`` (a random family too).
-        robot_width_m: Robot diameter, metres.
-        width_px: Image width, pixels.
-        height_px: Image height, pixels.
-        focal_px: Focal length, pixels.
-        baseline_m: Stereo baseline, metres.
-        head_height_m: Height of the optical centres, metres.
-        pixel_noise_std: Standard deviation of Gaussian noise added to each pixel value by
-            ``render_stereo()`` (grey levels, 0 = none), drawn from the env's ``np_random``.
-        max_speed_m_s: Forward speed at action[0] = 1, m/s.
-        max_turn_rate_rad_s: Turn rate at action[1] = 1, rad/s.
-        max_pan_rate_rad_s: Largest head pan rate, rad/s.
-        pan_limit_rad: Head pan at action[2] = +-1, radians.
-        dt_s: Seconds per step.
-        goal_radius_m: The episode succeeds when the robot's centre is this close to the goal.
-        collision_penalty: Reward subtracted in a step with a collision.
-        goal_reward: Reward added on reaching the goal.
-        time_penalty: Reward subtracted every step.
-    """
-
-    scenario: str = "default"
-    robot_width_m: float = 0.5
-    width_px: int = 320
-    height_px: int = 240
-    focal_px: float = 260.0
-    baseline_m: float = 0.12
-    head_height_m: float = 0.8
-    pixel_noise_std: float = 0.0
-    max_speed_m_s: float = 0.5
-    max_turn_rate_rad_s: float = math.pi / 2
-    max_pan_rate_rad_s: float = math.pi / 2
-    pan_limit_rad: float = math.pi / 2
-    dt_s: float = 0.1
-    goal_radius_m: float = 0.3
-    collision_penalty: float = 1.0
-    goal_reward: float = 10.0
-    time_penalty: float = 0.01
-
-    def __post_init__(self) -> None:
-        known = (*available_maps(), *FAMILIES, "random")
-        if not isinstance(self.scenario, str) or not (
-            self.scenario in known or self.scenario.endswith(".json")
-        ):
-            raise ValueError(
-                f"scenario must be one of {list(known)} or a .json path, got {self.scenario!r}"
-            )
-        for name in ("pixel_noise_std", "collision_penalty", "goal_reward", "time_penalty"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a non-negative finite number, got {value!r}")
-        if not (isinstance(self.goal_radius_m, int | float) and self.goal_radius_m > 0):
-            raise ValueError(f"goal_radius_m must be positive, got {self.goal_radius_m!r}")
-        _ = self.rig, self.world_config  # validate the derived configurations
-
-    @property
-    def rig(self) -> StereoRig:
-        """The stereo rig these settings describe."""
-        return StereoRig(
-            focal_px=self.focal_px,
-            baseline_m=self.baseline_m,
-            width_px=self.width_px,
-            height_px=self.height_px,
-        )
-
-    @property
-    def world_config(self) -> WorldConfig:
-        """The world's robot and physics parameters."""
-        return WorldConfig(
-            robot_width_m=self.robot_width_m,
-            head_height_m=self.head_height_m,
-            max_speed_m_s=self.max_speed_m_s,
-            max_turn_rate_rad_s=self.max_turn_rate_rad_s,
-            max_pan_rate_rad_s=self.max_pan_rate_rad_s,
-            pan_limit_rad=self.pan_limit_rad,
-            dt_s=self.dt_s,
-        )
-
-    @classmethod
-    def from_kwargs(cls, **kwargs: Any) -> EnvConfig:
-        """A config from keyword arguments; an unknown key is a ``ValueError`` naming it."""
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(kwargs) - names)
-        if unknown:
-            raise ValueError(f"unknown StereoNav option(s) {unknown}; known: {sorted(names)}")
-        return cls(**kwargs)
+STAGES = (
+    "physics",
+    "noise",
+    "render",
+    "segments",
+    "matching",
+    "triangulation",
+    "modeling",
+    "packing",
+    "rewards",
+    "diagnostics",
+)
+"""Names of the stages timed in ``env.last_timings_ms``."""
 
 
-class StereoNavEnv(gym.Env[dict[str, NDArray[np.float32]], NDArray[np.float32]]):
-    """Navigate a disc robot to a goal while looking at the world through a stereo head.
+def _pan_fraction(pan_rad: float, limit_rad: float) -> float:
+    """Head pan as a fraction of its limit, in [-1, 1] (0 when the head cannot pan)."""
+    return min(max(pan_rad / limit_rad, -1.0), 1.0) if limit_rad > 0 else 0.0
+
+
+class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
+    """Drive a disc robot to a goal, seeing the world only through an uncertain stereo head.
 
     ## Description
-    A robot (a disc, 0.5 m wide, 1 m tall) moves on the floor of an indoor scene (walls with
-    doorways, tables and chairs on legs, bookshelves with repeated vertical edges, boxes) simulated
-    with pymunk, and sees it through a rectified stereo pair rendered with pyrender from a head on
-    its centre that pans relative to the body. Gaps between obstacles close to the robot width make
-    passability uncertain. The perception follows Miura (ICRA-94).
+    A robot (a disc 0.5 m wide and 1 m tall) moves on the floor of an indoor scene (walls with
+    doorways, tables and chairs on legs, bookshelves whose repeated vertical edges make stereo
+    matching ambiguous, boxes), simulated with pymunk. A stereo head on its centre pans relative
+    to the body; every step a rectified pair is rendered (pyrender, headless) with Gaussian pixel
+    noise (``pixel_noise_std``, 2 grey levels by default, drawn from ``np_random``), and the
+    modeling pipeline of Miura (ICRA-94) turns it into an environment model: floor segments with
+    uncertain endpoints, obstacles, critical regions (gaps whose passability for the robot's width
+    is undecided, each with ``p_passable``), the occluded area, and the possible situations of the
+    world (one per combination of ambiguous matches) with their probabilities. The observation
+    packs that model; gaps close to the robot's width make passability genuinely uncertain, and
+    looking again from elsewhere resolves it. The model is of the latest view only (no memory
+    across steps: stack frames or use a recurrent policy for that).
 
     ## Action Space
-    ``Box(-1, 1, (3,), float32)``:
+    ``StereoNav-v0``: ``Box(-1, 1, (3,), float32)``; every action moves and looks:
 
-    | index | meaning                | scale                          |
-    |-------|------------------------|--------------------------------|
-    | 0     | forward speed          | x ``max_speed_m_s`` (0.5 m/s)  |
-    | 1     | turn rate (CCW > 0)    | x ``max_turn_rate_rad_s``      |
-    | 2     | head pan target        | x ``pan_limit_rad`` (90 deg)   |
+    | index | meaning                              | scale                                  |
+    |-------|--------------------------------------|----------------------------------------|
+    | 0     | forward speed (negative: backwards)  | x ``max_speed_m_s`` (0.5 m/s)          |
+    | 1     | turn rate (counter-clockwise > 0)    | x ``max_turn_rate_rad_s`` (90 deg/s)   |
+    | 2     | head pan target, relative to the body (left > 0) | x ``pan_limit_rad`` (90 deg) |
 
-    The pan moves towards its target at most ``max_pan_rate_rad_s`` (90 deg/s).
+    The head moves towards its target at most ``max_pan_rate_rad_s`` (90 deg/s, 9 deg a step).
+    Values outside [-1, 1] are clipped to it; an action that is not 3 finite numbers (NaN,
+    infinity, another shape) is a ``ValueError``.
+
+    ``StereoNavDiscrete-v0``: ``Discrete(11)`` macro actions, each one step of
+    ``(forward, turn, pan target)`` in the same units
+    (:data:`~stereo_nav_env.actions.DISCRETE_ACTIONS`):
+
+    | index | name              | forward | turn | pan  |
+    |-------|-------------------|---------|------|------|
+    | 0     | forward           | 1       | 0    | 0    |
+    | 1     | forward_left      | 1       | 0.5  | 0    |
+    | 2     | forward_right     | 1       | -0.5 | 0    |
+    | 3     | turn_left         | 0       | 1    | 0    |
+    | 4     | turn_right        | 0       | -1   | 0    |
+    | 5     | stop_look_left    | 0       | 0    | 0.5  |
+    | 6     | stop_look_centre  | 0       | 0    | 0    |
+    | 7     | stop_look_right   | 0       | 0    | -0.5 |
+    | 8     | slow_look_left    | 0.5     | 0    | 0.5  |
+    | 9     | slow_look_right   | 0.5     | 0    | -0.5 |
+    | 10    | back_up           | -0.5    | 0    | 0    |
+
+    An index that is not an integer in [0, 11) is a ``ValueError``.
 
     ## Observation Space
-    ``Dict`` (provisional; replaced by the model-based observation in a later issue):
+    ``Dict`` (K = ``num_situations`` = 8, R = ``num_regions`` = 8, F = 12, S = ``raster_size_px``
+    = 64; robot frame: origin at the robot's centre, +x forward, +y left, metres):
 
-    | key        | shape | dtype   | meaning                                                     |
-    |------------|-------|---------|-------------------------------------------------------------|
-    | goal       | (2,)  | float32 | goal in the robot frame: (forward, left), metres            |
-    | head_pan   | (1,)  | float32 | head pan relative to the body / ``pan_limit_rad``, in [-1, 1] |
+    | key                | shape        | dtype   | meaning                                     |
+    |--------------------|--------------|---------|---------------------------------------------|
+    | `situation_probs`  | (K,)         | float32 | probabilities of the K most probable        |
+    |                    |              |         | situations, descending (0: none)            |
+    | `critical_regions` | (K * R * F,) | float32 | row-major (K, R, F): each situation's       |
+    |                    |              |         | critical regions, nearest first             |
+    | `raster`           | (S, S, 3)    | uint8   | egocentric top-down raster, forward up:     |
+    |                    |              |         | expected occupancy; doubt 4p(1-p) of the    |
+    |                    |              |         | critical regions; unobserved (255 occluded, |
+    |                    |              |         | 128 outside the field of view)              |
+    | `goal`             | (4,)         | float32 | goal in the robot frame: x_m, y_m,          |
+    |                    |              |         | distance_m, bearing_rad                     |
+    | `head_pan`         | (1,)         | float32 | head pan relative to the body divided by    |
+    |                    |              |         | ``pan_limit_rad``, in [-1, 1]               |
+    | `left`, `right`    | (H, W, 3)    | uint8   | the noisy rectified pair (``observation_mode`` |
+    |                    |              |         | ``"images"`` or ``"both"``)                 |
+
+    The F region columns: valid, x_m, y_m (centre of the narrowest undecided relation),
+    width_mean_m, width_std_m, p_passable, doubt (4p(1-p)), distance_m, bearing_rad, axis_x, axis_y
+    (unit vector across the gap), radius_m (extent of the region); padding rows are all 0. With
+    ``observation_mode="images"`` only ``left``, ``right``, ``goal`` and ``head_pan`` are present.
+    Details: :mod:`stereo_nav_env.observation`, :mod:`stereo_nav_env.raster`.
 
     ## Rewards
-    Named components in ``info["reward_components"]``, summed: ``progress`` (decrease of the
-    distance to the goal, metres), ``collision`` (``-collision_penalty`` in a step with a contact),
-    ``goal`` (``goal_reward`` on arrival), ``time`` (``-time_penalty`` each step).
+    The sum of the named components in ``info["reward_components"]`` (weights in
+    :class:`~stereo_nav_env.config.RewardConfig`): ``goal`` (+10 on reaching the goal),
+    ``collision`` (-10 in a step with a contact), ``time`` (-0.01 every step), ``progress`` (1 x
+    the decrease of the geodesic distance to the goal through the true free space, metres).
 
     ## Starting State
-    The scene's start pose, head pan 0. Maps are fixed; generator families draw a new scene from
-    the env's seeded generator at every reset.
+    The scene's start pose, head pan 0, at rest. Maps are fixed; generator families draw a new scene
+    from ``np_random`` at every reset. The first observation is computed from the start pose.
 
     ## Episode End
-    Terminated when the robot's centre is within ``goal_radius_m`` of the goal
-    (``info["is_success"]``). Truncated by the ``TimeLimit`` wrapper (500 steps for
-    ``StereoNav-v0``).
+    Terminated when the robot's centre is within ``goal_radius_m`` (0.3 m) of the goal
+    (``info["is_success"]``), or when it touches an obstacle (``info["collision"]``; unless
+    ``terminate_on_collision=False``). Truncated by the ``TimeLimit`` wrapper after
+    ``max_episode_steps`` (500 steps, 50 s).
+
+    ## Info
+    ``model`` (:class:`~modeling.model.EnvironmentModel` of the latest pair, compared by content),
+    ``diagnostics`` (floats comparing it with the truth: ``nees_mean``, ``coverage_95``,
+    ``passability_brier``, ``p_true_candidate`` and their counts; a figure with nothing to measure
+    in the view is left out; see :mod:`stereo_nav_env.diagnostics`; empty with
+    ``diagnostics=False``), ``reward_components`` (after a step), ``is_success``,
+    ``collision``, ``scene`` (its name), ``distance_to_goal_m`` (straight) and
+    ``geodesic_distance_m``.
 
     ## Arguments
-    ``render_mode`` (``None`` or ``"rgb_array"``: ``render()`` returns the left and right images
-    side by side, (H, 2W, 3) uint8) and the fields of :class:`EnvConfig` as keyword arguments.
+    ``gym.make("StereoNav-v0", render_mode=None, **kwargs)``: ``render_mode`` is ``None`` or
+    ``"rgb_array"`` (``render()`` returns a 480 x 960 RGB frame: the true world from above with the
+    model overlaid and the left image; :mod:`stereo_nav_env.viewer`). Every other keyword is a field
+    of :class:`~stereo_nav_env.config.EnvConfig` (scenario, robot and camera, noise, dynamics,
+    model), :class:`~stereo_nav_env.config.ObservationConfig` (``observation_mode``, K, R, raster)
+    or :class:`~stereo_nav_env.config.RewardConfig` (weights); an unknown or invalid one is a
+    ``ValueError`` naming it.
 
     ## Version History
-    * v0: first version (issue 2): scene, world, stereo rendering; provisional observation.
+    * v0: the model-based observation (situations, critical regions, raster), move-and-look
+      actions, named rewards with geodesic progress, diagnostics against ground truth (issue 5).
+      A first v0 of issue 2 observed only the goal and the head pan.
     """
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 10}  # noqa: RUF012
@@ -182,19 +184,31 @@ class StereoNavEnv(gym.Env[dict[str, NDArray[np.float32]], NDArray[np.float32]])
         self.render_mode = render_mode
         self.config = EnvConfig.from_kwargs(**kwargs)
         self.rig: StereoRig = self.config.rig
-        self.action_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
-        self.observation_space = spaces.Dict(
-            {
-                "goal": spaces.Box(-GOAL_RANGE_M, GOAL_RANGE_M, shape=(2,), dtype=np.float32),
-                "head_pan": spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32),
-            }
+        self.action_space = self._make_action_space()
+        self.observation_space = observation_space(self.config.observation, self.rig)
+        self._fixed_scene: Scene | None = (
+            None if self.config.is_generated else load_scenario(self.config.scenario)
         )
-        self._fixed_scene: Scene | None = None
-        if self.config.scenario not in (*FAMILIES, "random"):
-            self._fixed_scene = load_scenario(self.config.scenario)
         self.scene: Scene | None = None
         self.world: World | None = None
+        self.model: EnvironmentModel | None = None
+        self.last_timings_ms: dict[str, float] = {}
+        self._pair: tuple[UInt8Image, UInt8Image] | None = None
+        self._geodesic: GeodesicField | None = None
+        self._truth: GroundTruth | None = None
+        self._truth_scene: Scene | None = None
         self._renderer: StereoRenderer | None = None
+        self._view: tuple[MapView, UInt8Image] | None = None
+        self._steps = 0
+        self._return = 0.0
+
+    # ------------------------------------------------------------------ actions
+    def _make_action_space(self) -> spaces.Space:
+        return spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
+
+    def _command(self, action: Any) -> NDArray[np.float64]:
+        """The normalised ``(forward, turn, pan)`` command of ``action`` (validated, clipped)."""
+        return continuous_command(action)
 
     # ------------------------------------------------------------------ ground truth / views
     def _require_world(self) -> World:
@@ -207,11 +221,23 @@ class StereoNavEnv(gym.Env[dict[str, NDArray[np.float32]], NDArray[np.float32]])
         """Pose of the LEFT optical centre now."""
         return self._require_world().head_pose(self.rig.baseline_m)
 
+    @property
+    def robot_pose(self) -> tuple[float, float, float]:
+        """``(x_m, y_m, heading_rad)`` of the robot's centre now, world frame."""
+        s = self._require_world().state
+        return (s.x_m, s.y_m, s.heading_rad)
+
     def ground_truth_footprints(self) -> list[NDArray[np.float64]]:
         """True obstacle outlines, each (k, 2) world metres."""
         self._require_world()
         assert self.scene is not None
         return self.scene.footprints()
+
+    def render_stereo(self) -> tuple[UInt8Image, UInt8Image]:
+        """The noisy rectified pair of the latest observation: copies, uint8 (H, W, 3) each."""
+        self._require_world()
+        assert self._pair is not None
+        return self._pair[0].copy(), self._pair[1].copy()
 
     def _get_renderer(self) -> StereoRenderer:
         assert self.scene is not None
@@ -221,101 +247,205 @@ class StereoNavEnv(gym.Env[dict[str, NDArray[np.float32]], NDArray[np.float32]])
             self._renderer.set_scene(self.scene)
         return self._renderer
 
-    def render_stereo(self) -> tuple[NDArray[np.uint8], NDArray[np.uint8]]:
-        """The rectified pair from the current head pose: uint8 (H, W, 3) each.
+    # ------------------------------------------------------------------ one observation
+    def _observe(self, watch: Stopwatch) -> Obs:
+        """Render the pair, run the pipeline, pack the observation (``self.model`` updated)."""
+        cfg = self.config
+        rig = self.rig
+        noise = draw_pixel_noise(self.np_random, rig.height_px, rig.width_px, cfg.pixel_noise_std)
+        watch.lap("noise")
+        head = self.head_pose
+        left, right = self._get_renderer().render_stereo(head)
+        watch.lap("render")
+        if noise is not None:
+            left, right = add_pixel_noise(left, noise[0]), add_pixel_noise(right, noise[1])
+        watch.lap("noise")
+        self._pair = (left, right)
+        self.model = perceive(
+            left,
+            right,
+            self.rig,
+            head,
+            robot_width_m=cfg.robot_width_m,
+            robot_height_m=cfg.robot_height_m,
+            eps=cfg.eps,
+            max_situations=cfg.model_max_situations,
+            stopwatch=watch,
+        )
+        world = self._require_world()
+        pose = self.robot_pose
+        assert self.scene is not None
+        obs: Obs = {
+            "goal": goal_features(self.scene.goal, pose),
+            "head_pan": np.array([_pan_fraction(world.pan_rad, cfg.pan_limit_rad)], np.float32),
+        }
+        if cfg.observation.has_model:
+            obs.update(pack_model(self.model, pose, cfg.observation))
+        if cfg.observation.has_images:
+            obs["left"], obs["right"] = left.copy(), right.copy()
+        watch.lap("packing")
+        return obs
 
-        Gaussian pixel noise of ``pixel_noise_std`` grey levels is added (from ``np_random``).
-        """
-        left, right = self._get_renderer().render_stereo(self.head_pose)
-        sigma = self.config.pixel_noise_std
-        if sigma > 0:
-            left, right = (
-                np.clip(np.rint(img + self.np_random.normal(0.0, sigma, img.shape)), 0, 255).astype(
-                    np.uint8
-                )
-                for img in (left, right)
-            )
-        return left, right
-
-    def render(self) -> NDArray[np.uint8] | None:
-        """``rgb_array``: the stereo pair side by side, (H, 2W, 3) uint8."""
-        if self.render_mode != "rgb_array":
-            return None
-        left, right = self.render_stereo()
-        return np.concatenate([left, right], axis=1)
+    def _info(self, watch: Stopwatch) -> dict[str, Any]:
+        assert self.scene is not None and self._geodesic is not None and self.model is not None
+        pose = self.robot_pose
+        diagnostics: dict[str, float] = {}
+        if self.config.diagnostics:
+            assert self._truth is not None
+            diagnostics = model_diagnostics(self.model, self._truth)
+        watch.lap("diagnostics")
+        return {
+            "model": self.model,
+            "diagnostics": diagnostics,
+            "is_success": False,
+            "collision": False,
+            "scene": self.scene.name,
+            "distance_to_goal_m": math.hypot(
+                self.scene.goal[0] - pose[0], self.scene.goal[1] - pose[1]
+            ),
+            "geodesic_distance_m": self._geodesic(pose[:2]),
+        }
 
     # ------------------------------------------------------------------ gym API
-    def _goal_distance(self) -> float:
-        assert self.scene is not None
-        s = self._require_world().state
-        return math.hypot(self.scene.goal[0] - s.x_m, self.scene.goal[1] - s.y_m)
-
-    def _obs(self) -> dict[str, NDArray[np.float32]]:
-        assert self.scene is not None
-        s = self._require_world().state
-        dx, dy = self.scene.goal[0] - s.x_m, self.scene.goal[1] - s.y_m
-        c, si = math.cos(s.heading_rad), math.sin(s.heading_rad)
-        goal = np.clip([c * dx + si * dy, -si * dx + c * dy], -GOAL_RANGE_M, GOAL_RANGE_M).astype(
-            np.float32
-        )
-        limit = self.config.pan_limit_rad
-        pan = s.pan_rad / limit if limit > 0 else 0.0
-        return {"goal": goal, "head_pan": np.array([np.clip(pan, -1, 1)], dtype=np.float32)}
-
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[dict[str, NDArray[np.float32]], dict[str, Any]]:
+    ) -> tuple[Obs, dict[str, Any]]:
         """Start an episode; a generated scenario draws its scene from ``np_random``."""
         super().reset(seed=seed)
+        watch = Stopwatch()
+        cfg = self.config
         if self._fixed_scene is not None:
             scene = self._fixed_scene
         else:
             scene_seed = int(self.np_random.integers(2**31 - 1))
-            scene = load_scenario(
-                self.config.scenario, scene_seed, robot_width_m=self.config.robot_width_m
-            )
+            scene = load_scenario(cfg.scenario, scene_seed, robot_width_m=cfg.robot_width_m)
         self.scene = scene
-        self.world = World(scene, self.config.world_config)
-        info = {
-            "is_success": False,
-            "scene": scene.name,
-            "distance_to_goal_m": self._goal_distance(),
-        }
-        return self._obs(), info
+        self.world = World(scene, cfg.world_config)
+        if self._truth_scene is not scene:
+            self._geodesic = GeodesicField.build(
+                scene, cfg.robot_radius_m, cfg.rewards.geodesic_cell_m
+            )
+            self._truth = (
+                GroundTruth.of(scene, cfg.robot_width_m, max_height_m=cfg.robot_height_m)
+                if cfg.diagnostics
+                else None
+            )
+            self._truth_scene = scene
+            self._view = None
+        self._steps = 0
+        self._return = 0.0
+        watch.lap("physics")
+        obs = self._observe(watch)
+        info = self._info(watch)
+        self.last_timings_ms = watch.laps
+        return obs, info
 
-    def step(
-        self, action: NDArray[np.float32]
-    ) -> tuple[dict[str, NDArray[np.float32]], float, bool, bool, dict[str, Any]]:
-        """Move, turn and pan by ``action`` (see Action Space) for ``dt_s`` seconds."""
+    def step(self, action: Any) -> tuple[Obs, float, bool, bool, dict[str, Any]]:
+        """Move, turn and pan by ``action`` (see Action Space) for ``dt_s`` seconds, then look."""
+        command = self._command(action)
         world = self._require_world()
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
-        if a.shape != (3,) or not np.all(np.isfinite(a)):
-            raise ValueError(f"action must be 3 finite numbers, got {action!r}")
-        a = np.clip(a, -1.0, 1.0)
+        assert self._geodesic is not None and self.scene is not None
+        watch = Stopwatch()
         cfg = self.config
-        before = self._goal_distance()
+        before = self._geodesic(self.robot_pose[:2])
         result = world.step(
-            a[0] * cfg.max_speed_m_s, a[1] * cfg.max_turn_rate_rad_s, a[2] * cfg.pan_limit_rad
+            command[0] * cfg.max_speed_m_s,
+            command[1] * cfg.max_turn_rate_rad_s,
+            command[2] * cfg.pan_limit_rad,
         )
-        after = self._goal_distance()
-        success = after <= cfg.goal_radius_m
-        components = {
-            "progress": before - after,
-            "collision": -cfg.collision_penalty if result.collided else 0.0,
-            "goal": cfg.goal_reward if success else 0.0,
-            "time": -cfg.time_penalty,
-        }
-        info = {
-            "is_success": success,
-            "collision": result.collided,
-            "reward_components": components,
-            "distance_to_goal_m": after,
-        }
-        return self._obs(), float(sum(components.values())), success, False, info
+        watch.lap("physics")
+        obs = self._observe(watch)
+        pose = self.robot_pose
+        after = self._geodesic(pose[:2])
+        reached = math.hypot(self.scene.goal[0] - pose[0], self.scene.goal[1] - pose[1]) <= (
+            cfg.goal_radius_m
+        )
+        components = reward_components(
+            cfg.rewards,
+            geodesic_before_m=before,
+            geodesic_after_m=after,
+            collided=result.collided,
+            reached_goal=reached,
+        )
+        reward = float(sum(components.values()))
+        watch.lap("rewards")
+        info = self._info(watch)
+        info.update(is_success=reached, collision=result.collided, reward_components=components)
+        terminated = bool(reached or (result.collided and cfg.terminate_on_collision))
+        self._steps += 1
+        self._return += reward
+        self.last_timings_ms = watch.laps
+        return obs, reward, terminated, False, info
+
+    def render(self) -> UInt8Image | None:
+        """``rgb_array``: a 480 x 960 RGB frame (world from above, model overlay, left image)."""
+        if self.render_mode != "rgb_array":
+            return None
+        self._require_world()
+        assert self.scene is not None
+        if self._view is None:
+            view = MapView.of(self.scene)
+            self._view = (view, draw_background(self.scene, view, self.config.robot_width_m))
+        view, background = self._view
+        model = self.model
+        lines = [f"{self.scene.name}  step {self._steps}  return {self._return:+.2f}"]
+        if model is not None:
+            best = model.situations[0] if model.situations else None
+            lines.append(
+                f"situations {len(model.situations)}  residual {model.residual_probability:.3f}"
+            )
+            if best is not None:
+                lines.append(
+                    f"best: P={best.probability:.2f}  obstacles {len(best.obstacles)}  "
+                    f"regions {len(best.critical_regions)}"
+                )
+                doubtful = sorted(best.critical_regions, key=lambda r: abs(r.p_passable - 0.5))
+                for region in doubtful[:6]:
+                    lines.append(
+                        f"  width {region.width_mean_m:.2f}+-{region.width_std_m:.2f} m  "
+                        f"p={region.p_passable:.2f}"
+                    )
+        state = self._require_world().state
+        return draw_frame(
+            background,
+            view,
+            scene=self.scene,
+            model=model,
+            robot_pose=self.robot_pose,
+            gaze_rad=state.gaze_rad,
+            robot_radius_m=self.config.robot_radius_m,
+            goal_radius_m=self.config.goal_radius_m,
+            left_image=None if self._pair is None else self._pair[0],
+            caption="\n".join(lines),
+        )
 
     def close(self) -> None:
-        """Release the renderer's OpenGL context (idempotent)."""
+        """Release the renderer's OpenGL context (idempotent; rendering again makes a new one)."""
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
         super().close()
+
+    # ------------------------------------------------------------------ pickling
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_renderer"] = None  # an OpenGL context cannot travel; made again on first use
+        state["_view"] = None
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+
+
+class StereoNavDiscreteEnv(StereoNavEnv):
+    """``StereoNavDiscrete-v0``: :class:`StereoNavEnv` with ``Discrete(11)`` move-and-look macros.
+
+    Everything but the action space is the same; see :class:`StereoNavEnv` (Action Space) and
+    :data:`stereo_nav_env.actions.DISCRETE_ACTIONS`.
+    """
+
+    def _make_action_space(self) -> spaces.Space:
+        return spaces.Discrete(len(DISCRETE_ACTIONS))
+
+    def _command(self, action: Any) -> NDArray[np.float64]:
+        return discrete_command(action)

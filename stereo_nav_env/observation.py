@@ -1,0 +1,197 @@
+"""The observation: its ``Dict`` space and the packing of a model into fixed-size arrays.
+
+Frames: the **robot frame** has its origin at the robot's centre, +x along the body heading
+(forward) and +y to the robot's left, metres; bearings are radians counter-clockwise from +x, in
+[-pi, pi].
+
+Keys (K = ``num_situations``, R = ``num_regions``, F = ``len(REGION_FEATURES)`` = 12,
+S = ``raster_size_px``; the model keys are present in modes ``"model"`` and ``"both"``, the images
+in ``"images"`` and ``"both"``, ``goal`` and ``head_pan`` always):
+
+| key                | shape       | dtype   | meaning                                          |
+|--------------------|-------------|---------|--------------------------------------------------|
+| `situation_probs`  | (K,)        | float32 | probabilities of the K most probable situations,  |
+|                    |             |         | descending; 0 for missing ones; sum <= 1         |
+| `critical_regions` | (K * R * F,)| float32 | row-major (K, R, F): per situation, its critical |
+|                    |             |         | regions nearest first, features below            |
+| `raster`           | (S, S, 3)   | uint8   | egocentric top-down raster (:mod:`.raster`)      |
+| `goal`             | (4,)        | float32 | goal in the robot frame: x_m, y_m, distance_m,   |
+|                    |             |         | bearing_rad                                      |
+| `head_pan`         | (1,)        | float32 | head pan relative to the body / ``pan_limit_rad`` |
+| `left`, `right`    | (H, W, 3)   | uint8   | the rectified pair the model was built from       |
+
+``critical_regions`` is flat because stable-baselines3 treats every 3-D ``Box`` as an image (its
+checker warns about a float one); ``obs["critical_regions"].reshape(K, R, F)`` recovers the
+table. The F features of one region (:data:`~stereo_nav_env.config.REGION_FEATURES`), robot frame:
+
+| column | name           | meaning                                                        |
+|--------|----------------|----------------------------------------------------------------|
+| 0      | `valid`        | 1 for a region, 0 for padding (then every column is 0)         |
+| 1, 2   | `x_m`, `y_m`   | centre: midpoint of the narrowest undecided relation, metres   |
+| 3      | `width_mean_m` | mean width across the narrowest relation, metres               |
+| 4      | `width_std_m`  | its standard deviation, metres                                 |
+| 5      | `p_passable`   | probability the robot fits through                             |
+| 6      | `doubt`        | ``4 p (1 - p)``: 1 at p = 0.5, 0 when certain                 |
+| 7      | `distance_m`   | distance from the robot's centre to the centre, metres         |
+| 8      | `bearing_rad`  | bearing of the centre, radians                                 |
+| 9, 10  | `axis_x`, `axis_y` | unit vector across the gap (obstacle i to obstacle j)      |
+| 11     | `radius_m`     | largest distance from the centre to the region's polygon, m    |
+
+Positions and lengths are clipped to ``feature_range_m``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import NDArray
+
+from modeling.model import EnvironmentModel
+from modeling.rig import StereoRig
+from stereo_nav_env.config import REGION_FEATURES, ObservationConfig
+from stereo_nav_env.raster import rasterize_model
+
+__all__ = [
+    "GOAL_RANGE_M",
+    "goal_features",
+    "observation_space",
+    "pack_model",
+    "region_bounds",
+    "to_robot_frame",
+]
+
+FloatArray = NDArray[np.float64]
+Float32Array = NDArray[np.float32]
+GOAL_RANGE_M = 100.0
+"""Bound of the goal coordinates, metres (scenes are far smaller)."""
+_PI32 = np.float32(math.pi)
+
+
+def to_robot_frame(points: FloatArray, robot_pose: tuple[float, float, float]) -> FloatArray:
+    """World points (..., 2) to the robot frame (..., 2), metres."""
+    x, y, heading = robot_pose
+    c, s = math.cos(heading), math.sin(heading)
+    d = np.asarray(points, dtype=np.float64) - np.array([x, y])
+    return np.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]], axis=-1)
+
+
+def region_bounds(cfg: ObservationConfig) -> tuple[Float32Array, Float32Array]:
+    """``(low, high)`` (F,) float32 bounds of one region's features."""
+    L = np.float32(cfg.feature_range_m)
+    low = np.array([0, -L, -L, 0, 0, 0, 0, 0, -_PI32, -1, -1, 0], dtype=np.float32)
+    high = np.array([1, L, L, L, L, 1, 1, L * np.float32(2.0), _PI32, 1, 1, L], dtype=np.float32)
+    assert low.shape == (len(REGION_FEATURES),)
+    return low, high
+
+
+def observation_space(cfg: ObservationConfig, rig: StereoRig) -> spaces.Dict:
+    """The ``Dict`` observation space for ``cfg`` (keys in the module docstring)."""
+    G = np.float32(GOAL_RANGE_M)
+    fields: dict[str, spaces.Space] = {
+        "goal": spaces.Box(
+            low=np.array([-G, -G, 0, -_PI32], dtype=np.float32),
+            high=np.array([G, G, G * np.float32(2.0), _PI32], dtype=np.float32),
+            dtype=np.float32,
+        ),
+        "head_pan": spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32),
+    }
+    if cfg.has_model:
+        K, R = cfg.num_situations, cfg.num_regions
+        low, high = region_bounds(cfg)
+        fields["situation_probs"] = spaces.Box(0.0, 1.0, shape=(K,), dtype=np.float32)
+        fields["critical_regions"] = spaces.Box(
+            low=np.tile(low, K * R), high=np.tile(high, K * R), dtype=np.float32
+        )
+        S = cfg.raster_size_px
+        fields["raster"] = spaces.Box(0, 255, shape=(S, S, 3), dtype=np.uint8)
+    if cfg.has_images:
+        shape = (rig.height_px, rig.width_px, 3)
+        fields["left"] = spaces.Box(0, 255, shape=shape, dtype=np.uint8)
+        fields["right"] = spaces.Box(0, 255, shape=shape, dtype=np.uint8)
+    return spaces.Dict(fields)
+
+
+def goal_features(
+    goal_xy: tuple[float, float], robot_pose: tuple[float, float, float]
+) -> Float32Array:
+    """``(x_m, y_m, distance_m, bearing_rad)`` (4,) float32 of the goal in the robot frame."""
+    g = to_robot_frame(np.asarray(goal_xy, dtype=np.float64), robot_pose)
+    x, y = float(g[0]), float(g[1])
+    out = np.array(
+        [x, y, math.hypot(x, y), math.atan2(y, x)],
+        dtype=np.float64,
+    )
+    G = GOAL_RANGE_M
+    return np.clip(out, [-G, -G, 0, -math.pi], [G, G, 2 * G, math.pi]).astype(np.float32)
+
+
+def _region_table(
+    model: EnvironmentModel, robot_pose: tuple[float, float, float], cfg: ObservationConfig
+) -> Float32Array:
+    """(K, R, F) float32 region features (see the module docstring), vectorised over regions."""
+    K, R, F = cfg.num_situations, cfg.num_regions, cfg.num_features
+    table = np.zeros((K, R, F), dtype=np.float64)
+    regions = [(k, r) for k, s in enumerate(model.situations[:K]) for r in s.critical_regions]
+    if regions:
+        which = np.array([k for k, _ in regions])
+        narrow_w = np.stack([r.narrowest for _, r in regions])  # (n, 2, 2) world
+        centre_w = narrow_w.mean(axis=1)
+        narrow = to_robot_frame(narrow_w, robot_pose)
+        centre = narrow.mean(axis=1)
+        dist = np.hypot(centre[:, 0], centre[:, 1])
+        order = np.lexsort((dist, which))  # by situation, then nearest first
+        first = np.searchsorted(which[order], which[order], side="left")
+        rank = np.arange(order.shape[0]) - first
+        keep = order[rank < R]
+        slot = rank[rank < R]
+        across = narrow[:, 1] - narrow[:, 0]
+        length = np.hypot(across[:, 0], across[:, 1])
+        axis = across / np.maximum(length, 1e-12)[:, None]
+        axis[length <= 1e-12] = 0.0
+        p = np.array([r.p_passable for _, r in regions])
+        radius = np.array(  # rigid motions keep distances: measured in the world frame
+            [
+                float(np.max(np.hypot(*(r.polygon - c).T)))
+                for (_, r), c in zip(regions, centre_w, strict=True)
+            ]
+        )
+        feats = np.empty((len(regions), F))
+        feats[:, 0] = 1.0
+        feats[:, 1:3] = centre
+        feats[:, 3] = [r.width_mean_m for _, r in regions]
+        feats[:, 4] = [r.width_std_m for _, r in regions]
+        feats[:, 5] = p
+        feats[:, 6] = 4.0 * p * (1.0 - p)
+        feats[:, 7] = dist
+        feats[:, 8] = np.arctan2(centre[:, 1], centre[:, 0])
+        feats[:, 9:11] = axis
+        feats[:, 11] = radius
+        table[which[keep], slot] = feats[keep]
+    low, high = region_bounds(cfg)
+    return np.clip(table.astype(np.float32), low, high)
+
+
+def pack_model(
+    model: EnvironmentModel, robot_pose: tuple[float, float, float], cfg: ObservationConfig
+) -> dict[str, NDArray]:
+    """The model fields of the observation: ``situation_probs``, ``critical_regions``, ``raster``.
+
+    Args:
+        model: The environment model (world frame).
+        robot_pose: ``(x_m, y_m, heading_rad)`` of the robot's centre, world frame.
+        cfg: K, R, raster size and extent, feature range.
+
+    Returns:
+        New arrays: (K,) float32, (K * R * F,) float32, (S, S, 3) uint8.
+    """
+    K = cfg.num_situations
+    probs = np.zeros(K, dtype=np.float32)
+    p = [s.probability for s in model.situations[:K]]
+    probs[: len(p)] = np.clip(np.asarray(p, dtype=np.float32), 0.0, 1.0)
+    return {
+        "situation_probs": probs,
+        "critical_regions": _region_table(model, robot_pose, cfg).reshape(-1),
+        "raster": rasterize_model(model, robot_pose, cfg),
+    }

@@ -1,0 +1,199 @@
+"""From a rendered stereo pair to an environment model: pixel noise, the modeling pipeline, timing.
+
+The pipeline is the one of ``modeling`` (Miura, ICRA-94): segments in both images, matching,
+floor segments with uncertainty, then :func:`modeling.model.build_model` (obstacles, critical
+regions, occlusion, situations). The stages are called one by one (rather than through
+``modeling.pipeline.stereo_to_floor``) so that each can be timed.
+
+The model returned is a :class:`ComparableModel`: an :class:`~modeling.model.EnvironmentModel`
+whose ``==`` compares content (arrays, geometries, nested dataclasses) instead of identity, so that
+two rollouts with one seed give equal ``info`` dictionaries (Gymnasium's determinism check
+compares them with ``==``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+import shapely
+from numpy.typing import NDArray
+from scipy.special import ndtri
+
+from modeling.matching import match_segments
+from modeling.model import EnvironmentModel, build_model
+from modeling.pipeline import to_gray
+from modeling.rig import HeadPose, StereoRig
+from modeling.segments import extract_segments
+from modeling.triangulation import triangulate_to_floor
+
+__all__ = [
+    "ComparableModel",
+    "Stopwatch",
+    "add_pixel_noise",
+    "draw_pixel_noise",
+    "perceive",
+    "structurally_equal",
+]
+
+UInt8Image = NDArray[np.uint8]
+_NOISE_LEVELS = 1 << 16
+
+
+def structurally_equal(a: Any, b: Any) -> bool:
+    """Whether ``a`` and ``b`` hold the same content (deep; NaN equals NaN).
+
+    Compares dataclass fields, numpy arrays (shape, dtype, values), shapely geometries (their WKB),
+    dicts, lists and tuples recursively, floats with NaN equal to NaN, anything else with ``==``.
+    """
+    if a is b:
+        return True
+    if type(a) is not type(b):
+        return False
+    if dataclasses.is_dataclass(a):
+        return all(
+            structurally_equal(getattr(a, f.name), getattr(b, f.name))
+            for f in dataclasses.fields(a)
+        )
+    if isinstance(a, np.ndarray):
+        if a.shape != b.shape or a.dtype != b.dtype:
+            return False
+        if a.dtype == object:
+            return all(structurally_equal(x, y) for x, y in zip(a.flat, b.flat, strict=True))
+        return bool(np.array_equal(a, b, equal_nan=a.dtype.kind in "fc"))
+    if isinstance(a, shapely.Geometry):
+        return bool(shapely.to_wkb(a) == shapely.to_wkb(b))
+    if isinstance(a, dict):
+        return a.keys() == b.keys() and all(structurally_equal(a[k], b[k]) for k in a)
+    if isinstance(a, list | tuple):
+        return len(a) == len(b) and all(structurally_equal(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, float):
+        return a == b or (math.isnan(a) and math.isnan(b))
+    return bool(a == b)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class ComparableModel(EnvironmentModel):
+    """An :class:`~modeling.model.EnvironmentModel` compared by content (see the module doc)."""
+
+    @classmethod
+    def of(cls, model: EnvironmentModel) -> ComparableModel:
+        """The same model (fields shared, not copied) with content equality."""
+        return cls(**{f.name: getattr(model, f.name) for f in dataclasses.fields(model)})
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, EnvironmentModel) and structurally_equal(
+            {f.name: getattr(self, f.name) for f in dataclasses.fields(self)},
+            {f.name: getattr(other, f.name) for f in dataclasses.fields(other)},
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+class Stopwatch:
+    """Wall-clock laps in milliseconds: ``lap(name)`` adds the time since the previous lap."""
+
+    def __init__(self) -> None:
+        self.laps: dict[str, float] = {}
+        self._t = time.perf_counter()
+
+    def lap(self, name: str) -> None:
+        """Add the time since the last lap (or creation) to ``laps[name]``, milliseconds."""
+        now = time.perf_counter()
+        self.laps[name] = self.laps.get(name, 0.0) + (now - self._t) * 1e3
+        self._t = now
+
+
+@functools.lru_cache(maxsize=8)
+def _noise_table(sigma: float) -> NDArray[np.float32]:
+    """(65536,) float32: ``sigma`` times the standard normal quantiles at ``(k + 0.5) / 65536``."""
+    table = (sigma * ndtri((np.arange(_NOISE_LEVELS) + 0.5) / _NOISE_LEVELS)).astype(np.float32)
+    table.setflags(write=False)
+    return table
+
+
+def draw_pixel_noise(
+    rng: np.random.Generator, height_px: int, width_px: int, sigma: float
+) -> NDArray[np.float32] | None:
+    """Gaussian grey-level noise for both images of a pair, or ``None`` if ``sigma`` is 0.
+
+    Each value is the standard normal quantile of a uniform 16-bit draw (inverse-CDF sampling
+    from a 65536-entry table), times ``sigma``: an exact sample of the normal distribution
+    discretised to 65536 equiprobable levels, its tails cut at 4.3 sigma (which the clipping of
+    the grey levels to [0, 255] makes immaterial). Five times faster than
+    ``rng.standard_normal`` on the machines this was measured on (0.3 ms a 320 x 240 pair).
+
+    Args:
+        rng: The env's generator (``np_random``); the only source of randomness.
+        height_px: Image height, pixels.
+        width_px: Image width, pixels.
+        sigma: Standard deviation, grey levels (>= 0).
+
+    Returns:
+        float32 (2, H, W): the noise of the left (0) and right (1) image, one value per pixel.
+    """
+    if sigma <= 0:
+        return None
+    levels = rng.integers(0, _NOISE_LEVELS, (2, height_px, width_px), dtype=np.uint16)
+    return np.take(_noise_table(float(sigma)), levels)
+
+
+def add_pixel_noise(image: UInt8Image, noise: NDArray[np.float32] | None) -> UInt8Image:
+    """``image`` (H, W, 3) uint8 plus ``noise`` (H, W), the same value on the three channels.
+
+    Rounded to the nearest grey level and saturated to [0, 255] (OpenCV ``saturate_cast``); the
+    grey image of the result (``cv2.COLOR_RGB2GRAY``, weights summing to 1) carries the same noise.
+    Returns ``image`` itself when ``noise`` is ``None``.
+    """
+    if noise is None:
+        return image
+    return cv2.add(image, cv2.merge([noise, noise, noise]), dtype=cv2.CV_8U)
+
+
+def perceive(
+    left: UInt8Image,
+    right: UInt8Image,
+    rig: StereoRig,
+    head_pose: HeadPose,
+    *,
+    robot_width_m: float,
+    robot_height_m: float,
+    eps: float,
+    max_situations: int,
+    stopwatch: Stopwatch | None = None,
+) -> ComparableModel:
+    """The environment model of one rectified pair (the whole modeling pipeline).
+
+    Args:
+        left: Left image, uint8 (H, W, 3) RGB of the rig's size.
+        right: Right image, the same.
+        rig: The stereo rig that took the pair.
+        head_pose: Pose of the left optical centre, world frame.
+        robot_width_m: Robot diameter, metres (gap classification).
+        robot_height_m: Floor segments are kept between 0.05 m and this height, metres.
+        eps: Classification tolerance in (0, 0.5).
+        max_situations: Most situations enumerated.
+        stopwatch: If given, its laps ``segments``, ``matching``, ``triangulation`` and
+            ``modeling`` are added to (its clock must have been lapped just before the call).
+
+    Returns:
+        The :class:`ComparableModel`.
+    """
+    watch = stopwatch if stopwatch is not None else Stopwatch()
+    segs_l = extract_segments(to_gray(left, "left"))
+    segs_r = extract_segments(to_gray(right, "right"))
+    watch.lap("segments")
+    matches = match_segments(segs_l, segs_r, rig)
+    watch.lap("matching")
+    floor = triangulate_to_floor(matches, rig, head_pose, max_height_m=robot_height_m)
+    watch.lap("triangulation")
+    model = build_model(floor, robot_width_m, eps=eps, max_situations=max_situations)
+    out = ComparableModel.of(model)
+    watch.lap("modeling")
+    return out

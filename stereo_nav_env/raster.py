@@ -1,0 +1,153 @@
+"""The egocentric top-down raster of an environment model (``obs["raster"]``).
+
+A square uint8 image, channels last ``(S, S, 3)`` like the camera images (stable-baselines3 then
+transposes every image of the observation alike; it cannot mix channel orders in one ``Dict``),
+centred on the robot's centre with the robot's forward direction (+x of the robot frame) pointing
+up (row 0) and its left (+y) pointing left (column 0); one pixel is ``2 * raster_half_extent_m /
+S`` metres. Viewed as RGB: red occupancy, green doubt, blue unobserved. Channels:
+
+0. **Expected occupancy**: over the K most probable situations, the probability-weighted mean
+   (normalised by their total probability) of each situation's obstacles drawn as their skeleton
+   lines (segments and the impassable links between them: where the robot cannot pass),
+   anti-aliased, 255 = an obstacle line in every situation.
+1. **Doubt**: the same weighted mean of each situation's critical regions filled with
+   ``255 * 4 p (1 - p)`` (``p = p_passable``; 255 at p = 0.5, 0 when the passability is certain),
+   the narrowest relation drawn as a line so thin regions are not lost; where regions overlap the
+   larger doubt wins.
+2. **Unobserved**: 255 in the occluded area (behind obstacles within the field of view and range,
+   ``model.occluded``), 128 outside the field of view or beyond the range, 0 where the floor was
+   seen free.
+
+All drawing is OpenCV (``fillPoly``, ``polylines``) with 4 bits of sub-pixel precision; no
+per-pixel Python loops.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from modeling.model import EnvironmentModel, Situation
+from stereo_nav_env.config import ObservationConfig
+
+__all__ = ["UNSEEN_VALUE", "rasterize_model", "world_to_raster"]
+
+FloatArray = NDArray[np.float64]
+UNSEEN_VALUE = 128
+_SHIFT = 4
+_SCALE = float(1 << _SHIFT)
+_ARC_POINTS = 24
+
+
+def world_to_raster(
+    robot_pose: tuple[float, float, float], cfg: ObservationConfig
+) -> tuple[FloatArray, FloatArray]:
+    """The affine map from world ``(x, y)`` to raster ``(column, row)``: ``p @ A.T + b``.
+
+    Args:
+        robot_pose: ``(x_m, y_m, heading_rad)`` of the robot's centre, world frame.
+        cfg: Raster size and extent.
+
+    Returns:
+        ``(A, b)``: (2, 2) and (2,), in pixels whose centres are at integer coordinates.
+    """
+    x, y, heading = robot_pose
+    c, s = math.cos(heading), math.sin(heading)
+    inv = 1.0 / cfg.raster_cell_m
+    A = np.array([[s, -c], [-c, -s]]) * inv  # column = -y_robot, row = -x_robot
+    centre = cfg.raster_size_px / 2.0 - 0.5
+    b = np.array([centre, centre]) - A @ np.array([x, y])
+    return A, b
+
+
+def _fixed(points: FloatArray, A: FloatArray, b: FloatArray) -> NDArray[np.int32]:
+    """World points (..., 2) to fixed-point raster coordinates (..., 2) int32 for OpenCV."""
+    pix = points @ A.T + b
+    return np.rint(np.clip(pix, -1e5, 1e5) * _SCALE).astype(np.int32)
+
+
+def _obstacle_lines(situation: Situation) -> FloatArray:
+    """(q, 2, 2) skeleton lines of all obstacles of a situation, world metres."""
+    parts = [
+        ob.lines if ob.lines.shape[0] else np.asarray(ob.points).reshape(-1, 2, 2)
+        for ob in situation.obstacles
+    ]
+    return np.concatenate(parts, axis=0) if parts else np.zeros((0, 2, 2))
+
+
+def _draw_situation(
+    situation: Situation, A: FloatArray, b: FloatArray, occ: NDArray, doubt: NDArray
+) -> None:
+    """Draw one situation's obstacle lines into ``occ`` and its regions into ``doubt`` (zeroed)."""
+    occ.fill(0)
+    doubt.fill(0)
+    lines = _obstacle_lines(situation)
+    if lines.shape[0]:
+        cv2.polylines(occ, list(_fixed(lines, A, b)), False, 255, 1, cv2.LINE_AA, _SHIFT)
+    regions = situation.critical_regions
+    if regions:
+        p = np.array([r.p_passable for r in regions])
+        values = np.rint(255.0 * 4.0 * p * (1.0 - p)).astype(int)
+        for k in np.argsort(values, kind="stable").tolist():  # larger doubt drawn last, wins
+            if values[k] == 0:
+                continue
+            r = regions[k]
+            cv2.fillPoly(doubt, [_fixed(r.polygon, A, b)], int(values[k]), cv2.LINE_8, _SHIFT)
+            ends = _fixed(r.narrowest, A, b)
+            cv2.line(doubt, tuple(ends[0]), tuple(ends[1]), int(values[k]), 1, cv2.LINE_8, _SHIFT)
+
+
+def _unobserved(model: EnvironmentModel, A: FloatArray, b: FloatArray, size: int) -> NDArray:
+    """Channel 2: 128 outside the field of view, 0 seen, 255 occluded."""
+    out = np.full((size, size), UNSEEN_VALUE, dtype=np.uint8)
+    obs = model.observation
+    vx, vy, heading = (float(v) for v in obs.viewpoint)
+    half = 0.5 * float(obs.fov_rad)
+    ang = heading + np.linspace(-half, half, _ARC_POINTS)
+    wedge = np.vstack(
+        [[vx, vy], np.c_[vx + obs.max_range_m * np.cos(ang), vy + obs.max_range_m * np.sin(ang)]]
+    )
+    cv2.fillPoly(out, [_fixed(wedge, A, b)], 0, cv2.LINE_8, _SHIFT)
+    if model.occluded:
+        cv2.fillPoly(out, [_fixed(p, A, b) for p in model.occluded], 255, cv2.LINE_8, _SHIFT)
+    return out
+
+
+def rasterize_model(
+    model: EnvironmentModel, robot_pose: tuple[float, float, float], cfg: ObservationConfig
+) -> NDArray[np.uint8]:
+    """The egocentric raster (S, S, 3) uint8 of ``model`` (channels in the module docstring).
+
+    Args:
+        model: The environment model (world frame).
+        robot_pose: ``(x_m, y_m, heading_rad)`` of the robot's centre, world frame.
+        cfg: Raster size and extent, and K (``num_situations``).
+
+    Returns:
+        A new uint8 array (S, S, 3), ``S = cfg.raster_size_px``.
+    """
+    size = cfg.raster_size_px
+    A, b = world_to_raster(robot_pose, cfg)
+    situations = model.situations[: cfg.num_situations]
+    out = np.zeros((3, size, size), dtype=np.uint8)
+    weights = np.array([s.probability for s in situations], dtype=np.float64)
+    total = float(weights.sum())
+    if situations and total > 0:
+        weights = weights / total
+        occ = np.empty((size, size), dtype=np.uint8)
+        doubt = np.empty((size, size), dtype=np.uint8)
+        if len(situations) == 1:
+            _draw_situation(situations[0], A, b, out[0], out[1])
+        else:
+            acc = np.zeros((2, size, size), dtype=np.float32)
+            for w, situation in zip(weights.tolist(), situations, strict=True):
+                _draw_situation(situation, A, b, occ, doubt)
+                cv2.scaleAdd(occ.astype(np.float32), w, acc[0], dst=acc[0])
+                cv2.scaleAdd(doubt.astype(np.float32), w, acc[1], dst=acc[1])
+            np.rint(acc, out=acc)
+            out[:2] = np.clip(acc, 0, 255).astype(np.uint8)
+    out[2] = _unobserved(model, A, b, size)
+    return cv2.merge([out[0], out[1], out[2]])

@@ -1,0 +1,81 @@
+"""EnvConfig and its sub-configurations: keyword mapping, validation, derived values."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import pytest
+
+from stereo_nav_env.config import EnvConfig, ObservationConfig, RewardConfig
+
+
+def test_flat_keywords_reach_the_sub_configuration_that_owns_them() -> None:
+    cfg = EnvConfig.from_kwargs(
+        scenario="two_gaps", num_situations=4, goal_reward=3.0, pixel_noise_std=1.5
+    )
+    assert cfg.scenario == "two_gaps" and cfg.pixel_noise_std == 1.5
+    assert cfg.observation.num_situations == 4 and cfg.observation.num_regions == 8
+    assert cfg.rewards.goal_reward == 3.0 and cfg.rewards.time_penalty == 0.01
+
+
+def test_whole_sub_configurations_are_accepted_and_flat_keys_override_them() -> None:
+    cfg = EnvConfig.from_kwargs(
+        observation={"num_regions": 3, "raster_size_px": 48}, raster_size_px=40
+    )
+    assert cfg.observation.num_regions == 3 and cfg.observation.raster_size_px == 40
+    rewards = RewardConfig(progress_weight=2.0)
+    assert EnvConfig.from_kwargs(rewards=rewards).rewards is not rewards
+    assert EnvConfig.from_kwargs(rewards=rewards).rewards.progress_weight == 2.0
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"bogus": 1}, "bogus"),
+        ({"observation": {"bogus": 1}}, "bogus"),
+        ({"observation": 3}, "observation"),
+        ({"scenario": "moon"}, "scenario"),
+        ({"robot_width_m": 0.0}, "robot_width_m"),
+        ({"baseline_m": -1.0}, "baseline_m"),
+        ({"pixel_noise_std": -1.0}, "pixel_noise_std"),
+        ({"eps": 0.5}, "eps"),
+        ({"width_px": 10}, "width_px"),
+        ({"model_max_situations": 0}, "model_max_situations"),
+        ({"diagnostics": 1}, "diagnostics"),
+        ({"terminate_on_collision": "yes"}, "terminate_on_collision"),
+        ({"observation_mode": "pixels"}, "observation_mode"),
+        ({"num_situations": 0}, "num_situations"),
+        ({"num_regions": 2.5}, "num_regions"),
+        ({"raster_size_px": 32}, "raster_size_px"),
+        ({"raster_half_extent_m": math.inf}, "raster_half_extent_m"),
+        ({"collision_penalty": -1.0}, "collision_penalty"),
+        ({"progress_weight": True}, "progress_weight"),
+        ({"geodesic_cell_m": 0.0}, "geodesic_cell_m"),
+        ({"max_speed_m_s": 100.0}, "substeps"),  # the world refuses tunnelling speeds
+    ],
+)
+def test_unknown_or_invalid_values_are_value_errors_naming_them(kwargs, name) -> None:
+    with pytest.raises(ValueError, match=name):
+        EnvConfig.from_kwargs(**kwargs)
+
+
+def test_configs_are_frozen_slotted_and_keyword_only() -> None:
+    cfg = EnvConfig()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        cfg.scenario = "two_gaps"  # type: ignore[misc]
+    for cls in (EnvConfig, ObservationConfig, RewardConfig):
+        assert hasattr(cls, "__slots__")
+        with pytest.raises(TypeError):
+            cls(1)  # type: ignore[misc]
+
+
+def test_derived_values_are_properties() -> None:
+    cfg = EnvConfig.from_kwargs(width_px=160, height_px=120, focal_px=130.0, robot_width_m=0.6)
+    assert (cfg.rig.width_px, cfg.rig.height_px, cfg.rig.focal_px) == (160, 120, 130.0)
+    assert cfg.world_config.robot_width_m == 0.6 and cfg.robot_radius_m == 0.3
+    assert cfg.observation.raster_cell_m == pytest.approx(10.0 / 64)
+    assert cfg.observation.num_features == 12
+    assert not cfg.is_generated and EnvConfig(scenario="office").is_generated
+    names = {f.name for f in dataclasses.fields(EnvConfig)}
+    assert not names & {"rig", "world_config", "robot_radius_m"}

@@ -1,0 +1,116 @@
+"""Diagnostics against ground truth, on hand-made observations of hand-made scenes."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from modeling.model import build_model
+from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
+from stereo_nav_env.diagnostics import (
+    DIAGNOSTIC_NAMES,
+    GroundTruth,
+    model_diagnostics,
+    normalised_outline_errors,
+)
+from stereo_nav_env.scenes import Scene, make_obstacle, oriented_rect
+
+SIGMA = 0.03
+COV = np.tile(np.diag([SIGMA**2, SIGMA**2]), (2, 1, 1))
+
+
+def _seg(a, b) -> FloorSegment:
+    return FloorSegment(endpoints=np.array([a, b], dtype=float), cov=COV)
+
+
+def _scene(*obstacles) -> Scene:
+    return Scene(
+        name="t", bounds=(-1.0, -3.0, 8.0, 3.0), obstacles=obstacles, start=(0, 0, 0), goal=(7, 0)
+    )
+
+
+def test_normalised_errors_across_the_nearest_outline() -> None:
+    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+    edges = np.stack([square, np.roll(square, -1, axis=0)], axis=1)
+    pts = np.array([[1.1, 0.5], [0.5, -0.2], [0.5, 1.0], [0.5, 0.9]])
+    cov = np.tile(np.diag([0.01, 0.04]), (4, 1, 1))
+    z = normalised_outline_errors(pts, cov, edges)
+    # 0.1 m across x (sigma 0.1), 0.2 m across y (sigma 0.2), on an edge, 0.1 m inside (sigma 0.2)
+    assert z.tolist() == pytest.approx([1.0, 1.0, 0.0, 0.5])
+    assert np.isnan(normalised_outline_errors(pts, cov, np.zeros((0, 2, 2)))).all()
+
+
+def test_nees_and_coverage_of_endpoints_off_the_outline_by_known_sigmas() -> None:
+    box = make_obstacle("box", oriented_rect((4.0, 0.0), 1.0, 2.0))  # front face at x = 3.5
+    truth = GroundTruth.of(_scene(box), 0.5)
+    obs = FloorObservation(
+        segments=(
+            _seg((3.53, 0.2), (3.53, 0.6)),  # 1 sigma inside the front face
+            _seg((3.44, -0.6), (3.44, -0.2)),  # 2 sigma in front of it
+        ),
+        viewpoint=np.zeros(3),
+    )
+    d = model_diagnostics(build_model(obs, 0.5), truth)
+    assert d["nees_mean"] == pytest.approx((1 + 1 + 4 + 4) / 4)
+    assert d["coverage_95"] == 0.5 and d["endpoints"] == 4.0
+    assert "p_true_candidate" not in d and d["ambiguous_segments"] == 0.0
+
+
+def test_p_true_candidate_is_the_probability_of_the_candidate_on_the_outline() -> None:
+    box = make_obstacle("box", oriented_rect((4.0, 0.0), 1.0, 2.0))
+    truth = GroundTruth.of(_scene(box), 0.5)
+    amb = AmbiguousSegment(
+        candidates=(_seg((2.9, 0.2), (2.9, 0.6)), _seg((3.5, 0.2), (3.5, 0.6))),
+        probabilities=(0.7, 0.3),
+    )
+    obs = FloorObservation(
+        segments=(_seg((3.5, -0.6), (3.5, -0.2)),), ambiguous=(amb,), viewpoint=np.zeros(3)
+    )
+    d = model_diagnostics(build_model(obs, 0.5), truth)
+    assert d["p_true_candidate"] == pytest.approx(0.3) and d["ambiguous_segments"] == 1.0
+
+
+def test_passability_brier_over_a_doubtful_gap_in_view() -> None:
+    # two thin walls at x in [3.5, 3.6], 0.55 m apart across y: wider than the 0.5 m robot
+    a = make_obstacle("wall", oriented_rect((3.55, 1.0), 1.0, 0.1, math.pi / 2))
+    b = make_obstacle("wall", oriented_rect((3.55, -0.55), 1.0, 0.1, math.pi / 2))
+    truth = GroundTruth.of(_scene(a, b), 0.5)
+    assert truth.gap_passable.tolist() == [True]
+    segs = (_seg((3.5, 0.5), (3.5, 1.5)), _seg((3.5, -1.05), (3.5, -0.05)))
+    model = build_model(FloorObservation(segments=segs, viewpoint=np.zeros(3)), 0.5)
+    (region,) = model.situations[0].critical_regions
+    d = model_diagnostics(model, truth)
+    assert d["gaps_in_view"] == 1.0 and d["gaps_scored"] == 1.0
+    assert d["passability_brier"] == pytest.approx((1.0 - region.p_passable) ** 2)
+    # looking the other way, the gap is out of view: the figure is left out, its counts are 0
+    away = build_model(
+        FloorObservation(segments=segs, viewpoint=np.array([0.0, 0.0, math.pi])), 0.5
+    )
+    d = model_diagnostics(away, truth)
+    assert d["gaps_in_view"] == 0.0 and "passability_brier" not in d
+    assert list(d) == [n for n in DIAGNOSTIC_NAMES if n in d]
+
+
+def test_ground_truth_outlines_include_legs_and_exclude_parts_above_the_band() -> None:
+    table = make_obstacle("table", oriented_rect((4.0, 0.0), 1.2, 0.7), 0.75)
+    truth = GroundTruth.of(_scene(table), 0.5)
+    n_parts = sum(1 for p in table.parts if p.z_max_m >= 0.05 and p.z_min_m <= 1.0)
+    assert n_parts >= 5  # the top and four legs
+    assert truth.edges.shape == (sum(p.footprint.shape[0] for p in table.parts), 2, 2)
+    low = GroundTruth.of(_scene(table), 0.5, max_height_m=0.5)  # below the top: legs only
+    assert low.edges.shape[0] < truth.edges.shape[0]
+
+
+def test_an_empty_observation_has_only_counts() -> None:
+    truth = GroundTruth.of(_scene(), 0.5)
+    d = model_diagnostics(build_model(FloorObservation(viewpoint=np.zeros(3)), 0.5), truth)
+    assert d == {
+        "endpoints": 0.0,
+        "ambiguous_segments": 0.0,
+        "gaps_in_view": 0.0,
+        "gaps_scored": 0.0,
+        "situations": float(len(build_model(FloorObservation(), 0.5).situations)),
+        "residual_probability": 0.0,
+    }

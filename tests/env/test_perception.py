@@ -1,0 +1,89 @@
+"""Pixel noise, content equality of models, and the perception stage on a rendered pair."""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import pytest
+import shapely
+
+from modeling.model import EnvironmentModel, build_model
+from modeling.observation import FloorObservation, FloorSegment
+from modeling.rig import HeadPose
+from stereo_nav_env.perception import (
+    ComparableModel,
+    Stopwatch,
+    add_pixel_noise,
+    draw_pixel_noise,
+    perceive,
+    structurally_equal,
+)
+
+
+def test_pixel_noise_is_gaussian_with_the_configured_sigma_and_seeded() -> None:
+    noise = draw_pixel_noise(np.random.default_rng(0), 240, 320, 2.5)
+    assert noise.shape == (2, 240, 320) and noise.dtype == np.float32
+    assert abs(noise.mean()) < 0.02 and noise.std() == pytest.approx(2.5, rel=0.01)
+    # standard normal quantiles: about 4.55 % beyond 2 sigma, 0.27 % beyond 3 sigma
+    assert np.mean(np.abs(noise) > 5.0) == pytest.approx(0.0455, abs=0.002)
+    assert np.mean(np.abs(noise) > 7.5) == pytest.approx(0.0027, abs=0.0006)
+    assert abs(np.corrcoef(noise[0].ravel(), noise[1].ravel())[0, 1]) < 0.01
+    again = draw_pixel_noise(np.random.default_rng(0), 240, 320, 2.5)
+    assert np.array_equal(noise, again)
+    assert draw_pixel_noise(np.random.default_rng(0), 240, 320, 0.0) is None
+
+
+def test_adding_noise_rounds_saturates_and_keeps_the_grey_level_noise() -> None:
+    image = np.array([[[0, 100, 255], [10, 10, 10]]], dtype=np.uint8)
+    noise = np.array([[-1.6, 2.4]], dtype=np.float32)
+    out = add_pixel_noise(image, noise)
+    assert out.tolist() == [[[0, 98, 253], [12, 12, 12]]]
+    assert add_pixel_noise(image, None) is image
+
+
+def _model(shift: float = 0.0) -> EnvironmentModel:
+    cov = np.tile(np.eye(2) * 1e-3, (2, 1, 1))
+    segs = (
+        FloorSegment(endpoints=np.array([[2.0, 0.3 + shift], [2.0, 1.3]]), cov=cov),
+        FloorSegment(endpoints=np.array([[2.0, -0.25], [2.0, -1.25]]), cov=cov),
+    )
+    return build_model(FloorObservation(segments=segs, viewpoint=np.zeros(3)), 0.5)
+
+
+def test_comparable_models_compare_by_content() -> None:
+    a, b, c = ComparableModel.of(_model()), ComparableModel.of(_model()), _model(0.01)
+    assert isinstance(a, EnvironmentModel)
+    assert a == b and a is not b and a != c
+    assert a == pickle.loads(pickle.dumps(a))
+
+
+def test_structural_equality_rules() -> None:
+    assert structurally_equal({"a": [1.0, float("nan")]}, {"a": [1.0, float("nan")]})
+    assert not structurally_equal((1, 2), [1, 2])
+    assert structurally_equal(np.array([np.nan, 1.0]), np.array([np.nan, 1.0]))
+    assert not structurally_equal(np.zeros(2), np.zeros(2, np.float32))
+    assert structurally_equal(shapely.box(0, 0, 1, 1), shapely.box(0, 0, 1, 1))
+    assert not structurally_equal(shapely.box(0, 0, 1, 1), shapely.box(0, 0, 1, 2))
+
+
+def test_perceive_models_a_rendered_pair_and_times_its_stages(rig, default_renderer) -> None:
+    head = HeadPose(x_m=1.0, y_m=3.06, heading_rad=0.0, height_m=0.8)
+    left, right = default_renderer.render_stereo(head)
+    watch = Stopwatch()
+    model = perceive(
+        left,
+        right,
+        rig,
+        head,
+        robot_width_m=0.5,
+        robot_height_m=1.0,
+        eps=0.05,
+        max_situations=16,
+        stopwatch=watch,
+    )
+    assert isinstance(model, ComparableModel) and 1 <= len(model.situations) <= 16
+    assert model.observation.segments and model.observation.ambiguous  # the bookshelf's edges
+    assert set(watch.laps) == {"segments", "matching", "triangulation", "modeling"}
+    assert all(v >= 0 for v in watch.laps.values())
+    assert model.observation.viewpoint.tolist() == [1.0, 3.06, 0.0]
