@@ -1,9 +1,9 @@
-"""The main job: render the default scenario and write pictures of it.
+"""The main job: one episode of the expected-cost planner, as a GIF, a model figure and a summary.
 
     python scripts/demo.py [--scenario NAME] [--seed N] [--out DIR]
 
-Writes ``topdown.png`` (the true world, robot, head and field of view), ``left.png`` and
-``right.png`` (the rectified stereo pair seen from the start pose) into ``--out``.
+Writes ``episode.gif``, ``model_steps.png`` and ``summary.json`` into ``--out`` (default
+``out/demo``), printing one line per step. The logic is in :mod:`agents.demo`.
 """
 
 from __future__ import annotations
@@ -12,45 +12,32 @@ import argparse
 import os
 import pathlib
 import sys
-import time
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
-import gymnasium as gym
-
-import stereo_nav_env  # noqa: F401  (registers the ids)
-from stereo_nav_env.demo_render import write_stereo_pngs, write_topdown_png
+from agents.demo import DemoResult, run_demo
 
 
-def main(argv: list[str] | None = None) -> dict[str, pathlib.Path]:
+def main(argv: list[str] | None = None) -> DemoResult:
+    """Parse the arguments and run the demo episode."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenario", default="default", help="map name, .json path or family")
     parser.add_argument("--seed", type=int, default=0, help="seed of the episode")
     parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("out/demo"))
+    parser.add_argument("--agent", default="planner", help="agent name (default: planner)")
+    parser.add_argument("--max-steps", type=int, default=500, help="steps at most")
     args = parser.parse_args(argv)
-
-    t0 = time.perf_counter()
-    env = gym.make("StereoNav-v0", scenario=args.scenario)
-    try:
-        env.reset(seed=args.seed)
-        base = env.unwrapped
-        left, right = base.render_stereo()
-        top = write_topdown_png(
-            base.scene,
-            args.out / "topdown.png",
-            robot_width_m=base.config.robot_width_m,
-            head_pose=base.head_pose,
-            rig=base.rig,
-        )
-        lp, rp = write_stereo_pngs(left, right, args.out)
-    finally:
-        env.close()
-    paths = {"topdown": top, "left": lp, "right": rp}
-    for name, path in paths.items():
+    result = run_demo(
+        args.out,
+        scenario=args.scenario,
+        seed=args.seed,
+        agent_name=args.agent,
+        max_steps=args.max_steps,
+    )
+    for name, path in (("gif", result.gif), ("figure", result.figure), ("summary", result.summary)):
         print(f"{name:>8s}: {path}")
-    print(f"done in {time.perf_counter() - t0:.1f} s")
-    return paths
+    return result
 
 
 if __name__ == "__main__":

@@ -1,8 +1,10 @@
-"""Fixtures shared by the whole suite: the default rig, the default scene and one renderer."""
+"""Fixtures shared by the whole suite: default rig, scene and renderer, and a small map."""
 
 from __future__ import annotations
 
+import json
 import os
+import pathlib
 from collections.abc import Iterator
 
 import pytest
@@ -34,3 +36,27 @@ def default_renderer(rig, default_scene) -> Iterator:  # -> StereoRenderer
     renderer = StereoRenderer(rig, default_scene)
     yield renderer
     renderer.close()
+
+
+SMALL_MAP = {
+    "format": "stereo-nav-map/1",
+    "name": "small_box",
+    "bounds": [0.0, 0.0, 5.0, 3.0],
+    "start": [0.8, 1.5, 0.0],
+    "goal": [4.2, 1.5],
+    "obstacles": [
+        {"kind": "wall", "rect": {"center": [2.5, 0.05], "size": [5.0, 0.1], "yaw_deg": 0}},
+        {"kind": "wall", "rect": {"center": [2.5, 2.95], "size": [5.0, 0.1], "yaw_deg": 0}},
+        {"kind": "wall", "rect": {"center": [0.05, 1.5], "size": [2.8, 0.1], "yaw_deg": 90}},
+        {"kind": "wall", "rect": {"center": [4.95, 1.5], "size": [2.8, 0.1], "yaw_deg": 90}},
+        {"kind": "box", "rect": {"center": [2.5, 1.35], "size": [0.6, 0.6], "yaw_deg": 0}},
+    ],
+}
+
+
+@pytest.fixture(scope="session")
+def small_map(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
+    """A 5 m x 3 m room with one box between the start and the goal (JSON map path)."""
+    path = tmp_path_factory.mktemp("maps") / "small_box.json"
+    path.write_text(json.dumps(SMALL_MAP))
+    return path

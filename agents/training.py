@@ -1,0 +1,349 @@
+"""PPO training on ``StereoNav-v0`` with stable-baselines3 (what ``scripts/train.py`` runs).
+
+:func:`train_ppo` trains a ``MultiInputPolicy`` (the observation is a ``Dict``) on ``n_envs``
+environments in subprocesses (``SubprocVecEnv`` with the ``forkserver`` start method by default,
+safe with the EGL renderer; one environment runs in-process), with
+
+* a tqdm progress bar over the timesteps,
+* TensorBoard logs in ``OUT/tb``,
+* periodic checkpoints in ``OUT/checkpoints`` (``CheckpointCallback``),
+* periodic evaluation on separate environments (``EvalCallback``; best model in ``OUT/best``,
+  results in ``OUT/eval/evaluations.npz``),
+* the learning curve: every finished training episode in ``OUT/curve.csv`` (timesteps, return,
+  length, success) and ``OUT/learning_curve.png`` (rolling return and success rate, evaluation
+  returns),
+* the final model ``OUT/ppo_final.zip`` (load it with ``make_agent("ppo:OUT/ppo_final.zip")``).
+
+``resume`` continues from a saved checkpoint (its timestep counter too).
+
+torch and stable-baselines3 are imported inside the functions, so importing this module is cheap.
+"""
+
+from __future__ import annotations
+
+import csv
+import pathlib
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = ["TrainConfig", "TrainResult", "plot_learning_curve", "train_ppo"]
+
+ENV_ID = "StereoNav-v0"
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class TrainConfig:
+    """What :func:`train_ppo` does.
+
+    Attributes:
+        timesteps: Environment steps to train for (in addition to a resumed model's).
+        out_dir: Output folder.
+        n_envs: Parallel environments (subprocesses when > 1).
+        seed: Seed of the policy and of the environments (env ``i`` gets ``seed + i``).
+        resume: A checkpoint ``.zip`` to continue from.
+        eval_freq: Evaluate every this many timesteps (0: never).
+        eval_episodes: Episodes per evaluation.
+        checkpoint_freq: Save a checkpoint every this many timesteps (0: never).
+        n_steps: PPO rollout length per environment.
+        batch_size: PPO minibatch size.
+        n_epochs: PPO epochs per update.
+        learning_rate: Adam step size.
+        gamma: Discount factor.
+        env_kwargs: Keyword arguments of ``gym.make(ENV_ID, ...)``.
+        start_method: ``multiprocessing`` start method of the subprocesses.
+        progress: Show a progress bar.
+        verbose: stable-baselines3 verbosity.
+    """
+
+    timesteps: int
+    out_dir: pathlib.Path
+    n_envs: int = 1
+    seed: int = 0
+    resume: pathlib.Path | None = None
+    eval_freq: int = 10_000
+    eval_episodes: int = 5
+    checkpoint_freq: int = 20_000
+    n_steps: int = 512
+    batch_size: int = 64
+    n_epochs: int = 10
+    learning_rate: float = 3e-4
+    gamma: float = 0.99
+    env_kwargs: dict[str, Any] = field(
+        default_factory=lambda: {"scenario": "random", "diagnostics": False}
+    )
+    start_method: str = "forkserver"
+    progress: bool = True
+    verbose: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("timesteps", "n_envs", "n_steps", "batch_size", "n_epochs"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        for name in ("eval_freq", "checkpoint_freq", "eval_episodes", "seed"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
+        object.__setattr__(self, "out_dir", pathlib.Path(self.out_dir))
+        if self.resume is not None:
+            resume = pathlib.Path(self.resume)
+            if not resume.is_file():
+                raise ValueError(f"resume must name an existing checkpoint, got {str(resume)!r}")
+            object.__setattr__(self, "resume", resume)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class TrainResult:
+    """What :func:`train_ppo` wrote.
+
+    Attributes:
+        model_path: The final model (``.zip``).
+        curve_csv: One row per finished training episode.
+        curve_png: The learning-curve plot.
+        timesteps: Total timesteps of the final model.
+        episodes: Training episodes finished in this run.
+    """
+
+    model_path: pathlib.Path
+    curve_csv: pathlib.Path
+    curve_png: pathlib.Path
+    timesteps: int
+    episodes: int
+
+
+def _env_factory(kwargs: dict[str, Any], seed: int) -> Callable[[], Any]:
+    def make() -> Any:
+        import gymnasium as gym
+        from stable_baselines3.common.monitor import Monitor
+
+        import stereo_nav_env  # noqa: F401  (registers the ids)
+
+        env = Monitor(gym.make(ENV_ID, **kwargs), info_keywords=("is_success",))
+        env.reset(seed=seed)
+        env.action_space.seed(seed)
+        return env
+
+    return make
+
+
+def _vec_env(cfg: TrainConfig, n: int, seed: int) -> Any:
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+    fns = [_env_factory(dict(cfg.env_kwargs), seed + i) for i in range(n)]
+    if n == 1:
+        return DummyVecEnv(fns)
+    return SubprocVecEnv(fns, start_method=cfg.start_method)
+
+
+def _callbacks(cfg: TrainConfig, rows: list[dict[str, float]]) -> list[Any]:
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class CurveCallback(BaseCallback):
+        """Records every finished episode (Monitor's ``info["episode"]``)."""
+
+        def _on_step(self) -> bool:
+            for info in self.locals.get("infos", ()):
+                ep = info.get("episode")
+                if ep is not None:
+                    rows.append(
+                        {
+                            "timesteps": float(self.num_timesteps),
+                            "return": float(ep["r"]),
+                            "length": float(ep["l"]),
+                            "success": float(bool(info.get("is_success", False))),
+                        }
+                    )
+            return True
+
+    class TqdmCallback(BaseCallback):
+        """A tqdm bar over the timesteps of this run."""
+
+        def _on_training_start(self) -> None:
+            from tqdm.auto import tqdm
+
+            self._bar = tqdm(total=cfg.timesteps, unit="step", desc="PPO", dynamic_ncols=True)
+            self._start = self.num_timesteps
+
+        def _on_step(self) -> bool:
+            done = self.num_timesteps - self._start
+            self._bar.update(max(0, done - self._bar.n))
+            if rows:
+                recent = rows[-20:]
+                self._bar.set_postfix(
+                    ret=f"{np.mean([r['return'] for r in recent]):.2f}",
+                    succ=f"{np.mean([r['success'] for r in recent]):.2f}",
+                )
+            return True
+
+        def _on_training_end(self) -> None:
+            self._bar.close()
+
+    callbacks: list[Any] = [CurveCallback()]
+    if cfg.progress:
+        callbacks.append(TqdmCallback())
+    return callbacks
+
+
+def train_ppo(cfg: TrainConfig) -> TrainResult:
+    """Train (or resume) PPO as :class:`TrainConfig` says; see the module docstring for outputs."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
+
+    out = cfg.out_dir
+    out.mkdir(parents=True, exist_ok=True)
+    env = _vec_env(cfg, cfg.n_envs, cfg.seed)
+    eval_env = None
+    rows: list[dict[str, float]] = []
+    try:
+        if cfg.resume is not None:
+            model = PPO.load(
+                str(cfg.resume), env=env, device="cpu", tensorboard_log=str(out / "tb")
+            )
+        else:
+            model = PPO(
+                "MultiInputPolicy",
+                env,
+                n_steps=cfg.n_steps,
+                batch_size=cfg.batch_size,
+                n_epochs=cfg.n_epochs,
+                learning_rate=cfg.learning_rate,
+                gamma=cfg.gamma,
+                seed=cfg.seed,
+                device="cpu",
+                tensorboard_log=str(out / "tb"),
+                verbose=cfg.verbose,
+            )
+        callbacks = _callbacks(cfg, rows)
+        if cfg.checkpoint_freq:
+            callbacks.append(
+                CheckpointCallback(
+                    save_freq=max(1, cfg.checkpoint_freq // cfg.n_envs),
+                    save_path=str(out / "checkpoints"),
+                    name_prefix="ppo",
+                )
+            )
+        if cfg.eval_freq:
+            from stable_baselines3.common.vec_env import VecTransposeImage
+
+            eval_env = _vec_env(cfg, 1, cfg.seed + 10_000)
+            if isinstance(model.get_env(), VecTransposeImage):  # as PPO wrapped the training env
+                eval_env = VecTransposeImage(eval_env)
+            callbacks.append(
+                EvalCallback(
+                    eval_env,
+                    n_eval_episodes=cfg.eval_episodes,
+                    eval_freq=max(1, cfg.eval_freq // cfg.n_envs),
+                    best_model_save_path=str(out / "best"),
+                    log_path=str(out / "eval"),
+                    deterministic=True,
+                    verbose=cfg.verbose,
+                )
+            )
+        model.learn(
+            total_timesteps=cfg.timesteps,
+            callback=callbacks,
+            reset_num_timesteps=cfg.resume is None,
+            tb_log_name="ppo",
+        )
+        model_path = out / "ppo_final.zip"
+        model.save(str(model_path))
+        timesteps = int(model.num_timesteps)
+    finally:
+        env.close()
+        if eval_env is not None:
+            eval_env.close()
+    curve_csv = out / "curve.csv"
+    _append_curve(curve_csv, rows, fresh=cfg.resume is None)
+    curve_png = plot_learning_curve(curve_csv, out / "learning_curve.png", out / "eval")
+    return TrainResult(
+        model_path=model_path,
+        curve_csv=curve_csv,
+        curve_png=curve_png,
+        timesteps=timesteps,
+        episodes=len(rows),
+    )
+
+
+_FIELDS = ("timesteps", "return", "length", "success")
+
+
+def _append_curve(path: pathlib.Path, rows: list[dict[str, float]], *, fresh: bool) -> None:
+    new = fresh or not path.exists()
+    with path.open("w" if new else "a", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=_FIELDS)
+        if new:
+            writer.writeheader()
+        writer.writerows(rows)
+
+
+def plot_learning_curve(
+    curve_csv: pathlib.Path, out_png: pathlib.Path, eval_dir: pathlib.Path | None = None
+) -> pathlib.Path:
+    """Plot the training returns and success rate (rolling means) and the evaluation returns.
+
+    Args:
+        curve_csv: The CSV written by :func:`train_ppo`.
+        out_png: Where to write the figure.
+        eval_dir: Folder holding ``evaluations.npz`` of ``EvalCallback`` (optional).
+
+    Returns:
+        ``out_png``.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t, ret, succ = [], [], []
+    if curve_csv.exists():
+        with curve_csv.open() as fh:
+            for row in csv.DictReader(fh):
+                t.append(float(row["timesteps"]))
+                ret.append(float(row["return"]))
+                succ.append(float(row["success"]))
+    fig, (ax_r, ax_s) = plt.subplots(1, 2, figsize=(11, 4))
+    if t:
+        window = max(1, min(50, len(t) // 5 or 1))
+        kernel = np.ones(window) / window
+        smooth_r = np.convolve(ret, kernel, mode="valid")
+        smooth_s = np.convolve(succ, kernel, mode="valid")
+        tt = np.asarray(t)[window - 1 :]
+        ax_r.plot(t, ret, ".", color="0.75", ms=3, label="episode")
+        ax_r.plot(tt, smooth_r, color="tab:blue", label=f"mean of {window}")
+        ax_s.plot(tt, smooth_s, color="tab:green", label=f"success, mean of {window}")
+    if eval_dir is not None and (eval_dir / "evaluations.npz").exists():
+        data = np.load(eval_dir / "evaluations.npz")
+        ax_r.errorbar(
+            data["timesteps"],
+            data["results"].mean(axis=1),
+            yerr=data["results"].std(axis=1),
+            fmt="o-",
+            color="tab:red",
+            label="evaluation",
+        )
+        if "successes" in data and data["successes"].size:
+            ax_s.plot(
+                data["timesteps"],
+                data["successes"].mean(axis=1),
+                "o-",
+                color="tab:red",
+                label="evaluation",
+            )
+    ax_r.set_xlabel("timesteps")
+    ax_r.set_ylabel("episode return")
+    ax_s.set_xlabel("timesteps")
+    ax_s.set_ylabel("success rate")
+    ax_s.set_ylim(-0.05, 1.05)
+    for ax in (ax_r, ax_s):
+        ax.grid(alpha=0.3)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=8)
+    fig.suptitle("PPO on StereoNav-v0")
+    fig.tight_layout()
+    out_png.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out_png, dpi=100)
+    plt.close(fig)
+    return out_png

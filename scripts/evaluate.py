@@ -1,0 +1,84 @@
+"""Evaluate agents on the fixed, seeded scene suite; write JSON, Markdown and a bar plot.
+
+    python scripts/evaluate.py --agent NAME [--agent NAME ...] --episodes N --seed S --json FILE
+        [--markdown FILE] [--plot FILE] [--details FILE] [--families F [F ...]]
+        [--max-steps N] [--workers K] [--terminate-on-collision]
+
+Agent names: random, greedy, cautious, planner, oracle, ppo:PATH. The logic is in
+:mod:`agents.evaluation`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import pathlib
+import sys
+
+os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+
+from agents.evaluation import (
+    SuiteConfig,
+    episode_records,
+    evaluate,
+    markdown_table,
+    plot_summary,
+    summarize,
+)
+
+
+def main(argv: list[str] | None = None) -> dict[str, dict[str, float | int]]:
+    """Parse the arguments, run the suite, write the outputs; returns the summary."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--agent", action="append", required=True, help="agent name (repeat)")
+    parser.add_argument("--episodes", type=int, default=32, help="episodes per agent")
+    parser.add_argument("--seed", type=int, default=0, help="suite seed")
+    parser.add_argument("--json", type=pathlib.Path, required=True, help="summary JSON file")
+    parser.add_argument("--markdown", type=pathlib.Path, help="Markdown table file")
+    parser.add_argument("--plot", type=pathlib.Path, help="bar plot (PNG)")
+    parser.add_argument("--details", type=pathlib.Path, help="per-episode JSON file")
+    parser.add_argument(
+        "--families", nargs="+", default=None, help="scene families (default: all four)"
+    )
+    parser.add_argument("--max-steps", type=int, default=500, help="steps at most per episode")
+    parser.add_argument("--workers", type=int, default=1, help="parallel processes")
+    parser.add_argument(
+        "--terminate-on-collision",
+        action="store_true",
+        help="end an episode at its first collision (the env's default task)",
+    )
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    args = parser.parse_args(argv)
+
+    kw = {} if args.families is None else {"families": tuple(args.families)}
+    cfg = SuiteConfig(
+        episodes=args.episodes,
+        seed=args.seed,
+        max_steps=args.max_steps,
+        env_kwargs={
+            "terminate_on_collision": bool(args.terminate_on_collision),
+            "diagnostics": False,
+        },
+        **kw,
+    )
+    results = evaluate(args.agent, cfg, workers=args.workers, progress=not args.no_progress)
+    summary = summarize(results)
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    args.json.write_text(json.dumps(summary, indent=2) + "\n")
+    table = markdown_table(summary)
+    print(table)
+    if args.markdown is not None:
+        args.markdown.parent.mkdir(parents=True, exist_ok=True)
+        args.markdown.write_text(table)
+    if args.plot is not None:
+        plot_summary(summary, args.plot)
+    if args.details is not None:
+        args.details.parent.mkdir(parents=True, exist_ok=True)
+        args.details.write_text(json.dumps(episode_records(results), indent=1) + "\n")
+    return summary
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,60 @@
+"""A 256-step PPO smoke run: it trains, checkpoints, writes its curve, saves, loads as an agent."""
+
+from __future__ import annotations
+
+import csv
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import stereo_nav_env  # noqa: F401  (registers the ids)
+from agents import make_agent
+from agents.training import TrainConfig, train_ppo
+
+
+def test_ppo_smoke_run_trains_saves_and_acts(tmp_path, small_map) -> None:
+    kwargs = {"scenario": str(small_map), "diagnostics": False, "max_episode_steps": 50}
+    result = train_ppo(
+        TrainConfig(
+            timesteps=256,
+            n_envs=1,
+            out_dir=tmp_path / "ppo",
+            n_steps=64,
+            batch_size=32,
+            n_epochs=1,
+            eval_freq=128,
+            eval_episodes=1,
+            checkpoint_freq=128,
+            env_kwargs=kwargs,
+            progress=False,
+        )
+    )
+    assert result.model_path.is_file() and result.timesteps == 256
+    assert sorted(p.name for p in (tmp_path / "ppo" / "checkpoints").iterdir()) == [
+        "ppo_128_steps.zip",
+        "ppo_256_steps.zip",
+    ]
+    assert (tmp_path / "ppo" / "eval" / "evaluations.npz").is_file()
+    assert any((tmp_path / "ppo" / "tb").rglob("events.out.tfevents.*"))
+    assert result.curve_png.is_file()
+    with result.curve_csv.open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == result.episodes >= 256 // 50
+    assert all(float(r["length"]) <= 50 for r in rows)
+
+    env = gym.make("StereoNav-v0", **kwargs)
+    obs, info = env.reset(seed=0)
+    agent = make_agent(f"ppo:{result.model_path}", env)
+    agent.reset(env, seed=0)
+    action = agent.act(obs, info)
+    env.close()
+    assert action.shape == (3,) and np.all(np.abs(action) <= 1)
+    assert agent.name == f"ppo:{result.model_path}"
+
+
+def test_train_config_rejects_bad_values(tmp_path) -> None:
+    with pytest.raises(ValueError, match="timesteps must be a positive integer"):
+        TrainConfig(timesteps=0, out_dir=tmp_path)
+    with pytest.raises(ValueError, match="resume must name an existing checkpoint"):
+        TrainConfig(timesteps=10, out_dir=tmp_path, resume=tmp_path / "missing.zip")

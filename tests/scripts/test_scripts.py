@@ -1,0 +1,67 @@
+"""Smoke tests of the command-line programs (thin argparse glue over ``agents``)."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import pathlib
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+def _script(name: str):
+    spec = importlib.util.spec_from_file_location(f"script_{name}", ROOT / "scripts" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    assert spec.loader is not None
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_evaluate_writes_json_markdown_plot_and_details(tmp_path, capsys) -> None:
+    out = tmp_path / "eval.json"
+    summary = _script("evaluate").main(
+        [
+            "--agent", "oracle", "--agent", "random", "--episodes", "2", "--seed", "1",
+            "--families", "room", "corridor", "--max-steps", "15", "--json", str(out),
+            "--markdown", str(tmp_path / "eval.md"), "--plot", str(tmp_path / "eval.png"),
+            "--details", str(tmp_path / "details.json"), "--no-progress",
+        ]
+    )  # fmt: skip
+    data = json.loads(out.read_text())
+    assert data == summary and list(data) == ["oracle", "random"]
+    assert set(data["oracle"]) == {
+        "episodes", "success_rate", "collision_rate", "spl", "mean_steps", "mean_looks",
+        "mean_episode_time_s",
+    }  # fmt: skip
+    assert data["oracle"]["episodes"] == 2 and data["oracle"]["mean_steps"] == 15
+    assert "| oracle | 2 |" in (tmp_path / "eval.md").read_text()
+    assert (tmp_path / "eval.png").stat().st_size > 1000
+    details = json.loads((tmp_path / "details.json").read_text())
+    assert sorted((d["agent"], d["family"]) for d in details) == [
+        ("oracle", "corridor"), ("oracle", "room"), ("random", "corridor"), ("random", "room"),
+    ]  # fmt: skip
+    assert "| random | 2 |" in capsys.readouterr().out
+
+
+def test_demo_writes_gif_figure_and_summary(tmp_path, small_map, capsys) -> None:
+    result = _script("demo").main(
+        ["--scenario", str(small_map), "--seed", "0", "--out", str(tmp_path / "demo"),
+         "--max-steps", "12"]
+    )  # fmt: skip
+    assert result.gif.read_bytes()[:6] == b"GIF89a"
+    assert result.figure.stat().st_size > 1000
+    summary = json.loads(result.summary.read_text())
+    assert summary["agent"] == "planner" and summary["steps"] == 12
+    assert summary["files"] == {"gif": "episode.gif", "figure": "model_steps.png"}
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("step ")]
+    assert len(lines) == 12
+
+
+def test_train_runs_end_to_end(tmp_path, small_map) -> None:
+    result = _script("train").main(
+        ["--timesteps", "64", "--n-envs", "1", "--out", str(tmp_path / "ppo"), "--n-steps", "32",
+         "--batch-size", "32", "--eval-freq", "0", "--checkpoint-freq", "0",
+         "--scenario", str(small_map), "--no-progress"]
+    )  # fmt: skip
+    assert result.model_path.is_file() and result.timesteps == 64
+    assert (tmp_path / "ppo" / "learning_curve.png").is_file()
