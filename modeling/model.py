@@ -309,7 +309,7 @@ def _safe_lines(coords: FloatArray) -> Any:
 def _split(arr: np.ndarray, counts: np.ndarray) -> list[np.ndarray]:
     """``arr`` cut into consecutive read-only views of ``counts`` rows each."""
     arr.setflags(write=False)
-    b = np.r_[0, np.cumsum(counts)].tolist()
+    b = [0, *np.cumsum(counts).tolist()]
     return [arr[b[k] : b[k + 1]] for k in range(len(b) - 1)]
 
 
@@ -435,7 +435,7 @@ class _Context:
             link_obst: (q,) obstacle of each of those rows.
         """
         n_obst = counts.shape[0]
-        bounds = np.r_[0, np.cumsum(counts)]
+        bounds = [0, *np.cumsum(counts).tolist()]
         keys = [items[bounds[c] : bounds[c + 1]].tobytes() for c in range(n_obst)]
         todo = [c for c, k in enumerate(keys) if k not in self.obstacle_cache]
         if todo:
@@ -465,7 +465,7 @@ class _Context:
         # Skeleton: the obstacle's segments, then its impassable links (closest points).
         lk = new_id[link_obst] >= 0
         lob = new_id[link_obst[lk]]
-        key = np.r_[ob, lob]
+        key = np.concatenate((ob, lob))
         order = np.argsort(key, kind="stable")
         lines = np.concatenate([self.ends[it], self.links[link_rows[lk]]])[order]
         line_parts = _split(lines, cnt + np.bincount(lob, minlength=t))
@@ -491,7 +491,7 @@ class _Context:
             rows: (k,) relation rows, grouped.
             starts: (g,) index in ``rows`` where each group starts.
         """
-        bounds = np.r_[starts, rows.shape[0]]
+        bounds = np.concatenate((starts, [rows.shape[0]]))
         keys = [rows[bounds[c] : bounds[c + 1]].tobytes() for c in range(starts.shape[0])]
         todo = [c for c, k in enumerate(keys) if k not in self.region_cache]
         if len(todo) == len(keys):  # all new (the first situation): no need to select
@@ -541,7 +541,7 @@ def _pair_groups(
     key = lo * (n_obst + 1) + hi
     srt = np.lexsort((within[rows], key))
     rows, key = rows[srt], key[srt]
-    starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    starts = np.flatnonzero(np.concatenate(([True], key[1:] != key[:-1])))
     return rows, starts, lo[srt][starts], hi[srt][starts]
 
 
@@ -562,7 +562,7 @@ def _regions(
     rel = ctx.rel
     # The narrowest relation of a region is its least passable one (first in its group).
     rows, starts, ra, rb = _pair_groups(rows, oi, oj, n_obst, rel.p_passable)
-    stops = np.r_[starts[1:], rows.shape[0]]
+    stops = np.concatenate((starts[1:], [rows.shape[0]]))
     narrowest = rows[starts]
     polys = ctx.region_polygons(rows, starts)
     w_mean, w_std = ctx.moments(narrowest)
@@ -723,7 +723,7 @@ def _occlusion(obs: FloorObservation, ends: FloatArray, n_rays: int = 361) -> An
     # Runs of consecutive blocked rays -> polygons: the hit points, then back along the range
     # arc, which reaches one ray beyond each end of the run (the shadow's edge lies between a
     # blocked and a free ray); this is the wedge minus the star polygon of the ray hits.
-    edges = np.diff(np.r_[0, blocked.astype(np.int8), 0])
+    edges = np.diff(np.concatenate(([0], blocked.astype(np.int8), [0])))
     run_lo = np.flatnonzero(edges == 1)
     run_hi = np.flatnonzero(edges == -1)  # exclusive
     far = vp + R * u
@@ -886,11 +886,11 @@ def build_model(
     # Stage 2: isolated short unambiguous segments.
     is_seg = item_seg_arr >= 0
     seg_pair = nonpass & is_seg[rel.i] & is_seg[rel.j]
-    deg_seg = np.bincount(np.r_[rel.i[seg_pair], rel.j[seg_pair]], minlength=N)
+    deg_seg = np.bincount(np.concatenate((rel.i[seg_pair], rel.j[seg_pair])), minlength=N)
     drop_seg = is_seg & (deg_seg == 0) & (length < min_len)
     kept_segments = tuple(int(x) for x in np.flatnonzero(is_seg & ~drop_seg))
     eliminated_segments = tuple(int(x) for x in np.flatnonzero(drop_seg))
-    deg_all = np.bincount(np.r_[rel.i[nonpass], rel.j[nonpass]], minlength=N)
+    deg_all = np.bincount(np.concatenate((rel.i[nonpass], rel.j[nonpass])), minlength=N)
     live_amb: list[int] = []
     eliminated_amb: list[int] = []
     for a, ids in enumerate(cand_item):

@@ -47,7 +47,6 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
 from modeling._validation import FloatArray
@@ -363,7 +362,10 @@ def extract_segments(
     nb = 2 * B + 1
     c_pred = np.minimum(np.maximum(np.rint(u_line).astype(np.int64), -B), W - 1 + B)
     pad = cv2.copyMakeBorder(img, 0, 0, 2 * B, 2 * B, cv2.BORDER_REPLICATE)
-    blk = sliding_window_view(pad, nb, axis=1)[rows, c_pred + B].astype(np.float32)
+    # pixel (row, c_pred + B + o) of the padded image, o = 0 .. nb - 1, by flat index (cheaper
+    # than fancy indexing a sliding-window view)
+    first_px = rows * pad.shape[1] + (c_pred + B)
+    blk = pad.ravel().take(first_px[:, None] + np.arange(nb)).astype(np.float32)
     # central-difference gradient at offsets -search_px - 1 .. search_px + 1 from c_pred
     lo = B - search_px - 1
     nwin = 2 * search_px + 1

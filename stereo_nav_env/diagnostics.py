@@ -64,6 +64,8 @@ DIAGNOSTIC_NAMES = (
 )
 _CHI2_2_99 = 9.2103
 _GAP_SLACK_M = 0.1
+_SLACK_COV = _GAP_SLACK_M**2 * np.eye(2)  # the slack as an isotropic covariance, m^2
+_SLACK_COV.setflags(write=False)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
@@ -187,7 +189,7 @@ def _active_items(model: EnvironmentModel) -> NDArray[np.bool_]:
 
 def _near(points: FloatArray, cov: FloatArray, target: FloatArray) -> NDArray[np.bool_]:
     """Whether each point (r, 2) with covariance (r, 2, 2) is within chi^2_2(0.99) of target."""
-    c = cov + _GAP_SLACK_M**2 * np.eye(2)
+    c = cov + _SLACK_COV
     d = points - target
     det = c[:, 0, 0] * c[:, 1, 1] - c[:, 0, 1] * c[:, 1, 0]
     dx, dy = d[:, 0], d[:, 1]

@@ -141,7 +141,9 @@ def draw_pixel_noise(
     if sigma <= 0:
         return None
     levels = rng.integers(0, _NOISE_LEVELS, (2, height_px, width_px), dtype=np.uint16)
-    return np.take(_noise_table(float(sigma)), levels)
+    # intp indices (``take`` casts uint16 ones itself, more slowly), all in range: "wrap" is the
+    # identity and skips the bounds check
+    return np.take(_noise_table(float(sigma)), levels.astype(np.intp), mode="wrap")
 
 
 def add_pixel_noise(image: UInt8Image, noise: NDArray[np.float32] | None) -> UInt8Image:

@@ -107,9 +107,10 @@ def _unobserved(model: EnvironmentModel, A: FloatArray, b: FloatArray, size: int
     vx, vy, heading = (float(v) for v in obs.viewpoint)
     half = 0.5 * float(obs.fov_rad)
     ang = heading + np.linspace(-half, half, _ARC_POINTS)
-    wedge = np.vstack(
-        [[vx, vy], np.c_[vx + obs.max_range_m * np.cos(ang), vy + obs.max_range_m * np.sin(ang)]]
-    )
+    wedge = np.empty((_ARC_POINTS + 1, 2))  # the viewpoint, then the range arc
+    wedge[0] = vx, vy
+    wedge[1:, 0] = vx + obs.max_range_m * np.cos(ang)
+    wedge[1:, 1] = vy + obs.max_range_m * np.sin(ang)
     cv2.fillPoly(out, [_fixed(wedge, A, b)], 0, cv2.LINE_8, _SHIFT)
     if model.occluded:
         cv2.fillPoly(out, [_fixed(p, A, b) for p in model.occluded], 255, cv2.LINE_8, _SHIFT)
