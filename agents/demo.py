@@ -15,6 +15,7 @@ into the output folder:
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import os
@@ -175,6 +176,29 @@ def run_demo(
     return DemoResult(gif=gif, figure=figure, summary=summary, figures=figures)
 
 
+def _richness(model: Any) -> int:
+    """How much a model shows: situations, obstacles and (doubly) critical regions."""
+    if not model.situations:
+        return 0
+    best = model.situations[0]
+    return len(model.situations) + len(best.obstacles) + 2 * len(best.critical_regions)
+
+
+def _pick_snapshots(snapshots: list[tuple[int, Any, Any]], count: int) -> list[int]:
+    """Indices of ``count`` snapshots spread over the episode, each the richest of its stretch.
+
+    The episode's snapshots are cut into ``count`` consecutive stretches of equal length; from each
+    the one whose model shows the most (:func:`_richness`; the earliest on ties) is taken, so a
+    stretch spent facing a plain wall does not give an empty panel when the robot saw more nearby.
+    """
+    bounds = np.linspace(0, len(snapshots), count + 1).round().astype(int)
+    picks = []
+    for lo, hi in itertools.pairwise(bounds):
+        if hi > lo:
+            picks.append(max(range(lo, hi), key=lambda k: (_richness(snapshots[k][1]), -k)))
+    return picks
+
+
 def _model_figure(
     snapshots: list[tuple[int, Any, tuple[float, float, float, float]]],
     footprints: list[NDArray[np.float64]],
@@ -188,7 +212,7 @@ def _model_figure(
 
     from modeling.plotting import plot_model
 
-    picks = sorted({round(float(k)) for k in np.linspace(0, len(snapshots) - 1, 4)})
+    picks = _pick_snapshots(snapshots, 4)
     fig, axes = plt.subplots(2, 2, figsize=(11, 8.5), squeeze=False)
     pts = np.concatenate([np.asarray(f).reshape(-1, 2) for f in footprints]) if footprints else None
     for ax, k in zip(axes.ravel(), picks, strict=False):
