@@ -40,7 +40,9 @@ the robot follows its route. So it decides where to look as well as where to mov
 
 Every agent re-plans every few steps, at once after a bump and when a look is done. A bump marks
 the map (plain walls, box faces and table tops are invisible to the segment stereo) and closes a
-gate being crossed; the robot then backs off. No movement for a while counts as a bump; no
+gate being crossed; the robot then backs off. Bumped again while backing off, it estimates the
+contact normals from the motion each contact blocked (for a sliding contact, a guess of the side)
+and moves along their mean, away from everything it touched lately. No movement for a while counts as a bump; no
 progress towards the goal for longer makes the robot forget what it saw and its older bumps
 (a false obstacle may trap it).
 """
@@ -159,7 +161,7 @@ class NavigatorConfig:
     max_looks_per_gate: int = 2
     stall_steps: int = 40
     forget_steps: int = 100
-    keep_bumps_steps: int = 30
+    keep_bumps_steps: int = 200
     backoff_steps: int = 4
 
     def __post_init__(self) -> None:
@@ -753,6 +755,10 @@ class ModelBasedAgent(Agent):
         self._closest_step = 0
         self._look_steps = 0
         self._last_forward = 0.0
+        self._last_pose = (0.0, 0.0, 0.0)
+        self._contacts: list[tuple[int, FloatArray]] = []
+        self._escape_heading: float | None = None
+        self._slides = 0
 
     def _reset(self, seed: int | None) -> None:
         limits = control_limits(self.env)
@@ -775,6 +781,10 @@ class ModelBasedAgent(Agent):
         self._closest_step = 0
         self._look_steps = 0
         self._last_forward = 0.0
+        self._last_pose = (x, y, robot_pose(self.env)[2])
+        self._contacts = []
+        self._escape_heading = None
+        self._slides = 0
 
     def _act(self, obs: Any, info: dict[str, Any]) -> NDArray[np.floating]:
         assert self.core is not None and self._follower is not None
@@ -788,13 +798,26 @@ class ModelBasedAgent(Agent):
         if info.get("collision", False):
             backwards = self._last_forward < 0
             core.bump(pose, backwards=backwards, step=self.steps)
+            self._note_contact(here)
             replan = True
-            if self._escape > 0:
+            away = self._away_from_contacts()
+            if self._escape > 0 and away is not None:
+                # Bumped while backing off: move along the mean contact normal (away from
+                # everything touched lately), after turning the nearer end of the body that way.
+                lim = core.limits
+                err = abs(_wrap(away - heading))
+                err = min(err, math.pi - err)
+                turn_steps = math.ceil(err / (lim.max_turn_rate_rad_s * lim.dt_s))
+                self._escape = cfg.backoff_steps + turn_steps
+                self._escape_heading = away
+            elif self._escape > 0:
+                self._escape_heading = None
                 # Bumped while escaping: the other way, twice at most, then re-plan from here.
                 self._escape_dir = -self._escape_dir
                 self._escape_flips += 1
                 self._escape = cfg.backoff_steps if self._escape_flips <= 2 else 0
             else:
+                self._escape_heading = None
                 self._escape = cfg.backoff_steps
                 self._escape_dir = 1.0 if backwards else -1.0
                 self._escape_flips = 0
@@ -812,12 +835,20 @@ class ModelBasedAgent(Agent):
             self._anchor, self._anchor_step = here, self.steps
             core.bump(pose, backwards=False, step=self.steps)
             self._escape, self._escape_dir, self._escape_flips = cfg.backoff_steps, -1.0, 0
+            self._escape_heading = None
             replan = True
+        self._last_pose = (x, y, heading)
         if self._escape > 0:
             self._escape -= 1
-            self._last_forward = 0.6 * self._escape_dir
             self.decision = None
-            return np.array([self._last_forward, 0.0, 0.0])
+            if self._escape_heading is None:
+                self._last_forward = 0.6 * self._escape_dir
+                return np.array([self._last_forward, 0.0, 0.0])
+            forward, turn = self._drive_along(self._escape_heading, heading)
+            if self._escape == 0:
+                self._escape_heading = None
+            self._last_forward = forward
+            return np.array([forward, turn, 0.0])
         if self.decision is not None and self.decision.mode is Mode.LOOK:
             replan = replan or self._look_done(pose)
         if replan:
@@ -845,6 +876,64 @@ class ModelBasedAgent(Agent):
             self._look_steps += 1
         self._last_forward = forward
         return np.array([forward, turn, pan_cmd])
+
+    def _note_contact(self, here: FloatArray) -> None:
+        """Estimate the contact normal of this step's collision from the motion it blocked.
+
+        The commanded displacement of the last step (``forward`` along the heading then) less the
+        displacement that happened is the part the obstacle stopped; the normal points the other
+        way. Sliding contact (almost nothing blocked) gives no measurement, only a guess of the
+        side, kept for the escape.
+        """
+        assert self.core is not None
+        lim = self.core.limits
+        x0, y0, h0 = self._last_pose
+        meant = (
+            self._last_forward
+            * lim.max_speed_m_s
+            * lim.dt_s
+            * np.array([math.cos(h0), math.sin(h0)])
+        )
+        blocked = meant - (here - np.array([x0, y0]))
+        size = float(np.hypot(*blocked))
+        if size > 0.25 * float(np.hypot(*meant)) and size > 1e-3:
+            self._contacts.append((self.steps, -blocked / size))
+        elif self._last_forward != 0.0:
+            # Sliding along something beside the path: it lies to one side of the motion. Guess
+            # a side, alternating; a wrong guess bumps into it and measures the normal.
+            self._slides += 1
+            motion = h0 + (0.0 if self._last_forward > 0 else math.pi)
+            side = motion + (math.pi / 2 if self._slides % 2 else -math.pi / 2)
+            self._contacts.append((self.steps, 0.5 * np.array([math.cos(side), math.sin(side)])))
+
+    def _away_from_contacts(self, window: int = 12) -> float | None:
+        """Heading away from the contacts of the last ``window`` steps (their mean normal)."""
+        self._contacts = [(k, n) for k, n in self._contacts if self.steps - k <= window]
+        if not self._contacts:
+            return None
+        mean = np.sum([n for _, n in self._contacts], axis=0)
+        if float(np.hypot(*mean)) < 0.3 * len(self._contacts):
+            # Touching on opposite sides (wedged front and back): try sideways, a quarter turn
+            # from the latest normal; a contact there adds its normal and points the way out.
+            latest = self._contacts[-1][1]
+            return math.atan2(latest[0], -latest[1])
+        return math.atan2(mean[1], mean[0])
+
+    def _drive_along(self, direction: float, heading: float) -> tuple[float, float]:
+        """(forward, turn) moving the robot along ``direction``, forwards or backwards.
+
+        The end of the robot facing ``direction`` more leads; the body turns to line it up and
+        drives only as far as it is lined up (turning in place first when it is across).
+        """
+        assert self.core is not None
+        lim = self.core.limits
+        err = _wrap(direction - heading)
+        sign = 1.0
+        if abs(err) > math.pi / 2:  # reverse: line the tail up with the direction
+            sign, err = -1.0, _wrap(err - math.pi)
+        turn = float(np.clip(err / (lim.max_turn_rate_rad_s * lim.dt_s), -1.0, 1.0))
+        forward = sign * 0.6 * max(math.cos(err), 0.0) ** 2
+        return forward, turn
 
     def _look_done(self, pose: tuple[float, float, float, float]) -> bool:
         """The looked-at point has been in the field of view for a step (or the look timed out)."""

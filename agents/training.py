@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import csv
 import pathlib
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -54,6 +55,8 @@ class TrainConfig:
         gamma: Discount factor.
         env_kwargs: Keyword arguments of ``gym.make(ENV_ID, ...)``.
         start_method: ``multiprocessing`` start method of the subprocesses.
+        max_minutes: Wall-clock budget: past it training stops (the rollout under way is
+            dropped) and everything is saved as at the end; ``None``: only ``timesteps``.
         progress: Show a progress bar.
         verbose: stable-baselines3 verbosity.
     """
@@ -75,6 +78,7 @@ class TrainConfig:
         default_factory=lambda: {"scenario": "random", "diagnostics": False}
     )
     start_method: str = "forkserver"
+    max_minutes: float | None = None
     progress: bool = True
     verbose: int = 0
 
@@ -87,6 +91,12 @@ class TrainConfig:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 0:
                 raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
+        if self.max_minutes is not None and not (
+            isinstance(self.max_minutes, int | float)
+            and not isinstance(self.max_minutes, bool)
+            and self.max_minutes > 0
+        ):
+            raise ValueError(f"max_minutes must be a positive number, got {self.max_minutes!r}")
         object.__setattr__(self, "out_dir", pathlib.Path(self.out_dir))
         if self.resume is not None:
             resume = pathlib.Path(self.resume)
@@ -181,7 +191,18 @@ def _callbacks(cfg: TrainConfig, rows: list[dict[str, float]]) -> list[Any]:
         def _on_training_end(self) -> None:
             self._bar.close()
 
+    class BudgetCallback(BaseCallback):
+        """Stops training once ``cfg.max_minutes`` have passed (the partial rollout is dropped)."""
+
+        def _on_training_start(self) -> None:
+            self._deadline = time.monotonic() + 60.0 * float(cfg.max_minutes or 0.0)
+
+        def _on_step(self) -> bool:
+            return time.monotonic() < self._deadline
+
     callbacks: list[Any] = [CurveCallback()]
+    if cfg.max_minutes is not None:
+        callbacks.append(BudgetCallback())
     if cfg.progress:
         callbacks.append(TqdmCallback())
     return callbacks

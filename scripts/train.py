@@ -2,7 +2,7 @@
 
     python scripts/train.py --timesteps N [--n-envs K] --out DIR [--resume CHECKPOINT]
         [--eval-freq N] [--checkpoint-freq N] [--seed S] [--scenario NAME] [--n-steps N]
-        [--batch-size N]
+        [--batch-size N] [--max-minutes M]
 
 Writes DIR/ppo_final.zip, DIR/checkpoints/, DIR/best/, DIR/eval/, DIR/tb/ (TensorBoard),
 DIR/curve.csv and DIR/learning_curve.png. The logic is in :mod:`agents.training`.
@@ -37,6 +37,9 @@ def main(argv: list[str] | None = None) -> TrainResult:
     parser.add_argument("--scenario", default="random", help="map name or scene family")
     parser.add_argument("--n-steps", type=int, default=512, help="PPO rollout steps per env")
     parser.add_argument("--batch-size", type=int, default=64, help="PPO minibatch size")
+    parser.add_argument(
+        "--max-minutes", type=float, default=None, help="wall-clock budget (stops and saves)"
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     result = train_ppo(
@@ -52,6 +55,7 @@ def main(argv: list[str] | None = None) -> TrainResult:
             n_steps=args.n_steps,
             batch_size=args.batch_size,
             env_kwargs={"scenario": args.scenario, "diagnostics": False},
+            max_minutes=args.max_minutes,
             progress=not args.no_progress,
         )
     )

@@ -58,3 +58,25 @@ def test_train_config_rejects_bad_values(tmp_path) -> None:
         TrainConfig(timesteps=0, out_dir=tmp_path)
     with pytest.raises(ValueError, match="resume must name an existing checkpoint"):
         TrainConfig(timesteps=10, out_dir=tmp_path, resume=tmp_path / "missing.zip")
+    with pytest.raises(ValueError, match="max_minutes must be a positive number"):
+        TrainConfig(timesteps=10, out_dir=tmp_path, max_minutes=0)
+
+
+def test_a_spent_time_budget_stops_training_and_still_saves(tmp_path, small_map) -> None:
+    kwargs = {"scenario": str(small_map), "diagnostics": False, "max_episode_steps": 50}
+    result = train_ppo(
+        TrainConfig(
+            timesteps=100_000,
+            n_envs=1,
+            out_dir=tmp_path / "ppo",
+            n_steps=32,
+            batch_size=32,
+            eval_freq=0,
+            checkpoint_freq=0,
+            env_kwargs=kwargs,
+            max_minutes=1e-6,
+            progress=False,
+        )
+    )
+    assert result.timesteps < 32  # stopped within the first rollout, long before 100 000
+    assert result.model_path.is_file() and result.curve_png.is_file()
