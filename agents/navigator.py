@@ -42,9 +42,9 @@ Every agent re-plans every few steps, at once after a bump and when a look is do
 the map (plain walls, box faces and table tops are invisible to the segment stereo) and closes a
 gate being crossed; the robot then backs off. Bumped again while backing off, it estimates the
 contact normals from the motion each contact blocked (for a sliding contact, a guess of the side)
-and moves along their mean, away from everything it touched lately. No movement for a while counts as a bump; no
-progress towards the goal for longer makes the robot forget what it saw and its older bumps
-(a false obstacle may trap it).
+and moves along their mean, away from everything it touched lately. No movement for a while
+counts as a bump; no progress towards the goal for longer makes the robot forget what it saw and
+its older bumps (a false obstacle may trap it).
 """
 
 from __future__ import annotations
