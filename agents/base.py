@@ -91,8 +91,9 @@ class Agent(abc.ABC):
     def _act(self, obs: Any, info: dict[str, Any]) -> NDArray[np.floating]:
         """The subclass's action (clipped to [-1, 1] by :meth:`act`)."""
 
-    def close(self) -> None:  # noqa: B027 (optional hook)
-        """Release resources."""
+    def close(self) -> None:
+        """Release resources; the agent lets go of its environment (``reset`` gives it one)."""
+        self.env = None
 
 
 # ---------------------------------------------------------------------------- environment access
