@@ -774,14 +774,14 @@ class ModelBasedAgent(Agent):
         self._escape = 0
         self._escape_dir = -1.0
         self._escape_flips = 0
-        x, y, _, _ = robot_pose(self.env)
+        x, y, heading, _ = robot_pose(self.env)
         self._anchor = np.array([x, y])
         self._anchor_step = 0
         self._closest = float(np.hypot(*(np.array([x, y]) - goal_xy(self.env))))
         self._closest_step = 0
         self._look_steps = 0
         self._last_forward = 0.0
-        self._last_pose = (x, y, robot_pose(self.env)[2])
+        self._last_pose = (x, y, heading)
         self._contacts = []
         self._escape_heading = None
         self._slides = 0
@@ -801,6 +801,7 @@ class ModelBasedAgent(Agent):
             self._note_contact(here)
             replan = True
             away = self._away_from_contacts()
+            self._escape_heading = None
             if self._escape > 0 and away is not None:
                 # Bumped while backing off: move along the mean contact normal (away from
                 # everything touched lately), after turning the nearer end of the body that way.
@@ -811,13 +812,11 @@ class ModelBasedAgent(Agent):
                 self._escape = cfg.backoff_steps + turn_steps
                 self._escape_heading = away
             elif self._escape > 0:
-                self._escape_heading = None
                 # Bumped while escaping: the other way, twice at most, then re-plan from here.
                 self._escape_dir = -self._escape_dir
                 self._escape_flips += 1
                 self._escape = cfg.backoff_steps if self._escape_flips <= 2 else 0
             else:
-                self._escape_heading = None
                 self._escape = cfg.backoff_steps
                 self._escape_dir = 1.0 if backwards else -1.0
                 self._escape_flips = 0

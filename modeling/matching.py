@@ -53,7 +53,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._validation import FloatArray
+from modeling._validation import FloatArray, positive
 from modeling.rig import StereoRig
 from modeling.segments import ImageSegments
 
@@ -228,30 +228,31 @@ def _check_rig(rig: object) -> StereoRig:
     return rig
 
 
-def _check_constraint_options(
+def _check_inputs(
+    left: object,
+    right: object,
+    rig: object,
     min_overlap_frac: float,
     min_overlap_px: float,
     max_angle_diff_deg: float,
     max_grey_diff: float,
     max_near_grey_diff: float,
     agree_px: float,
-) -> None:
+) -> tuple[ImageSegments, ImageSegments, StereoRig]:
+    """The checks both public functions make: the segments, the rig and the constraint options."""
+    checked = (_check_segments(left, "left"), _check_segments(right, "right"), _check_rig(rig))
     if not (0.0 <= min_overlap_frac <= 1.0):
         raise ValueError(f"min_overlap_frac must be in [0, 1], got {min_overlap_frac!r}")
-    if not (math.isfinite(min_overlap_px) and min_overlap_px >= 0):
-        raise ValueError(f"min_overlap_px must be a non-negative number, got {min_overlap_px!r}")
-    for name, value in (
-        ("max_angle_diff_deg", max_angle_diff_deg),
-        ("agree_px", agree_px),
-    ):
-        if not (math.isfinite(value) and value > 0):
-            raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+    positive(min_overlap_px, "min_overlap_px", allow_zero=True)
+    positive(max_angle_diff_deg, "max_angle_diff_deg")
+    positive(agree_px, "agree_px")
     for name, value in (
         ("max_grey_diff", max_grey_diff),
         ("max_near_grey_diff", max_near_grey_diff),
     ):
         if not (value >= 0):  # inf allowed: disables the check
             raise ValueError(f"{name} must be non-negative, got {value!r}")
+    return checked
 
 
 @dataclass(frozen=True, slots=True)
@@ -416,10 +417,10 @@ def match_candidates(
         ValueError: ``left``/``right`` are not ``ImageSegments``, ``rig`` is not a ``StereoRig``,
             or an option is out of range.
     """
-    left = _check_segments(left, "left")
-    right = _check_segments(right, "right")
-    rig = _check_rig(rig)
-    _check_constraint_options(
+    left, right, rig = _check_inputs(
+        left,
+        right,
+        rig,
         min_overlap_frac,
         min_overlap_px,
         max_angle_diff_deg,
@@ -515,10 +516,10 @@ def match_segments(
         ValueError: ``left``/``right`` are not ``ImageSegments``, ``rig`` is not a ``StereoRig``,
             or an option is out of range.
     """
-    left = _check_segments(left, "left")
-    right = _check_segments(right, "right")
-    rig = _check_rig(rig)
-    _check_constraint_options(
+    left, right, rig = _check_inputs(
+        left,
+        right,
+        rig,
         min_overlap_frac,
         min_overlap_px,
         max_angle_diff_deg,
@@ -530,15 +531,10 @@ def match_segments(
         raise ValueError(f"opposite_weight must be in [0, 1], got {opposite_weight!r}")
     if not (0.0 < rel_peak <= 1.0):
         raise ValueError(f"rel_peak must be in (0, 1], got {rel_peak!r}")
-    if not (math.isfinite(self_weight) and self_weight >= 0):
-        raise ValueError(f"self_weight must be a non-negative number, got {self_weight!r}")
-    for name, value in (
-        ("smooth_px", smooth_px),
-        ("min_peak_sep_px", min_peak_sep_px),
-        ("sigma_v_px", sigma_v_px),
-    ):
-        if not (math.isfinite(value) and value > 0):
-            raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+    positive(self_weight, "self_weight", allow_zero=True)
+    positive(smooth_px, "smooth_px")
+    positive(min_peak_sep_px, "min_peak_sep_px")
+    positive(sigma_v_px, "sigma_v_px")
     su, sv = (float(x) for x in region_sigma_px)
     if not (math.isfinite(su) and math.isfinite(sv) and su > 0 and sv > 0):
         raise ValueError(f"region_sigma_px must be two positive numbers, got {region_sigma_px!r}")

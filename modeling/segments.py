@@ -49,7 +49,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._validation import FloatArray
+from modeling._validation import FloatArray, positive
 
 __all__ = ["ImageSegments", "extract_segments"]
 
@@ -233,12 +233,9 @@ def _check_options(
         ("min_length_px", min_length_px),
         ("lsd_scale", lsd_scale),
     ):
-        if not (math.isfinite(value) and value > 0):
-            raise ValueError(f"{name} must be a positive finite number, got {value!r}")
-    if not (math.isfinite(bias_sigma_px) and bias_sigma_px >= 0):
-        raise ValueError(f"bias_sigma_px must be a non-negative number, got {bias_sigma_px!r}")
-    if not (math.isfinite(min_gradient) and min_gradient >= 0):
-        raise ValueError(f"min_gradient must be a non-negative number, got {min_gradient!r}")
+        positive(value, name)
+    positive(bias_sigma_px, "bias_sigma_px", allow_zero=True)
+    positive(min_gradient, "min_gradient", allow_zero=True)
     if not (0.0 <= min_angle_deg < 90.0):
         raise ValueError(f"min_angle_deg must be in [0, 90), got {min_angle_deg!r}")
     if lsd_scale > 1.0:

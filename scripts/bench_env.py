@@ -24,7 +24,6 @@ images), ``matching``, ``triangulation``, ``modeling`` (``build_model``), ``pack
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import pathlib
@@ -37,6 +36,7 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 import gymnasium as gym
 import numpy as np
+from _figures import print_figures, write_figures
 
 import stereo_nav_env  # noqa: F401  (registers the ids)
 from stereo_nav_env.env import STAGES
@@ -130,11 +130,8 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     parser.add_argument("--quick", action="store_true", help="40 steps, 1 round (smoke run)")
     args = parser.parse_args(argv)
     figures = run(steps=args.steps, rounds=args.rounds, quick=args.quick)
-    for name, value in figures.items():
-        print(f"{name:<36s} {value:10.3f}")
-    if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(figures, indent=2, sort_keys=True) + "\n")
+    print_figures(figures)
+    write_figures(figures, args.json)
     return figures
 
 

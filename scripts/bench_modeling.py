@@ -18,7 +18,6 @@ an estimate for an idle machine):
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import pathlib
 import statistics
@@ -29,6 +28,8 @@ from collections.abc import Callable
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+
+from _figures import print_figures, write_figures
 
 from modeling.model import build_model
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
@@ -182,11 +183,8 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     parser.add_argument("--quick", action="store_true", help="fewer repeats (smoke run)")
     args = parser.parse_args(argv)
     figures = run(quick=args.quick)
-    for name, value in figures.items():
-        print(f"  {name:<48s} {value:12.4g}")
-    if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(figures, indent=2, sort_keys=True) + "\n")
+    print_figures(figures)
+    write_figures(figures, args.json)
     return figures
 
 

@@ -10,7 +10,6 @@ context is created and warmed up before timing.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import pathlib
@@ -21,6 +20,8 @@ from collections.abc import Sequence
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+
+from _figures import print_figures, write_figures
 
 from modeling.rig import HeadPose, StereoRig
 from stereo_nav_env.render import StereoRenderer
@@ -88,11 +89,8 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     parser.add_argument("--quick", action="store_true", help="5 repetitions (smoke run)")
     args = parser.parse_args(argv)
     figures = run(repeats=args.repeats, quick=args.quick)
-    for name, value in figures.items():
-        print(f"{name:<32s} {value:10.3f}")
-    if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(figures, indent=2, sort_keys=True) + "\n")
+    print_figures(figures)
+    write_figures(figures, args.json)
     return figures
 
 

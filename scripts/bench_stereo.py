@@ -51,7 +51,6 @@ extraction -> matching -> triangulation, and reports (flat JSON, units in the na
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import pathlib
@@ -63,6 +62,7 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
 import cv2
 import numpy as np
+from _figures import print_figures, write_figures
 
 from modeling.matching import StereoMatches, match_candidates, match_segments
 from modeling.observation import FloorObservation
@@ -486,10 +486,8 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     parser.add_argument("--quick", action="store_true")
     args = parser.parse_args(argv)
     figures = run(args.n_scenes, seed=args.seed, noise_sigma=args.noise, quick=args.quick)
-    for name, value in figures.items():
-        print(f"  {name:<48s} {value:12.4g}")
-    if args.json:
-        args.json.write_text(json.dumps(figures, indent=2))
+    print_figures(figures)
+    write_figures(figures, args.json)
     return figures
 
 

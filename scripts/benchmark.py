@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import json
 import os
 import pathlib
 import platform
@@ -21,6 +20,8 @@ import sys
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+
+from _figures import print_figures, write_figures
 
 SECTIONS = ("render", "stereo", "modeling", "env")
 
@@ -57,13 +58,10 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
         module = importlib.import_module(f"bench_{section}")
         print(f"\n== {section}")
         result = module.run(quick=args.quick)
-        for name, value in result.items():
-            print(f"  {name:<48s} {value:12.4g}")
+        print_figures(result)
         figures.update(result)
     if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        payload = {"machine": machine_description(), **figures}
-        args.json.write_text(json.dumps(payload, indent=2, sort_keys=True) + "\n")
+        write_figures({"machine": machine_description(), **figures}, args.json)
         print(f"\nwrote {args.json}")
     return figures
 

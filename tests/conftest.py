@@ -60,14 +60,3 @@ def small_map(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
     path = tmp_path_factory.mktemp("maps") / "small_box.json"
     path.write_text(json.dumps(SMALL_MAP))
     return path
-
-
-def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
-    """Free the pymunk spaces still waiting for the garbage collector while pymunk is loaded.
-
-    Left to interpreter shutdown, their finalisers run after pymunk's module state is gone and
-    print ``Exception ignored ... spacefree`` tracebacks.
-    """
-    import gc
-
-    gc.collect()
