@@ -186,7 +186,7 @@ def control_limits(env: Any) -> ControlLimits:
     u = _base(env)
     cfg = getattr(u, "config", None)
     rig = getattr(u, "rig", None)
-    fov = 2.0 * math.atan2(rig.width_px / 2.0, rig.focal_px) if rig is not None else None
+    fov = rig.hfov_rad if rig is not None else None
     if cfg is None:
         return ControlLimits() if fov is None else ControlLimits(fov_rad=fov)
     kw: dict[str, float] = {
