@@ -20,6 +20,7 @@ _EXPORTS: dict[str, str] = {
     "FloorObservation": "modeling.observation",
     "ImageSegments": "modeling.segments",
     "extract_segments": "modeling.segments",
+    "extract_segment_pair": "modeling.segments",
     "StereoMatches": "modeling.matching",
     "match_segments": "modeling.matching",
     "triangulate_to_floor": "modeling.triangulation",
@@ -49,6 +50,7 @@ __all__ = [
     "StereoRig",
     "build_model",
     "classify_gap",
+    "extract_segment_pair",
     "extract_segments",
     "gap_passable_probability",
     "match_segments",
@@ -69,7 +71,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
     from modeling.pipeline import model_from_stereo
     from modeling.rig import HeadPose, StereoRig
-    from modeling.segments import ImageSegments, extract_segments
+    from modeling.segments import ImageSegments, extract_segment_pair, extract_segments
     from modeling.triangulation import triangulate_to_floor
 
 

@@ -18,7 +18,7 @@ from modeling._validation import positive
 from modeling.matching import match_segments
 from modeling.observation import FloorObservation
 from modeling.rig import HeadPose, StereoRig
-from modeling.segments import extract_segments
+from modeling.segments import extract_segment_pair
 from modeling.triangulation import triangulate_to_floor
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -128,8 +128,7 @@ def stereo_to_floor(
     if gr.shape != want:
         raise ValueError(f"right must be {want[0]}x{want[1]} pixels (the rig's), got {gr.shape}")
     ext, mat, tri = split_stereo_kwargs(kw)
-    segs_l = extract_segments(gl, **ext)
-    segs_r = extract_segments(gr, **ext)
+    segs_l, segs_r = extract_segment_pair(gl, gr, **ext)
     matches = match_segments(segs_l, segs_r, rig, **mat)
     return triangulate_to_floor(matches, rig, head_pose, **tri)
 

@@ -42,8 +42,11 @@ Image frame: pixels, u right, v down, (0, 0) the centre of the top-left pixel.
 from __future__ import annotations
 
 import math
+import os
 import threading
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from typing import Any, NamedTuple
 
 import cv2
 import numpy as np
@@ -51,7 +54,7 @@ from numpy.typing import NDArray
 
 from modeling._validation import FloatArray, positive
 
-__all__ = ["ImageSegments", "extract_segments"]
+__all__ = ["ImageSegments", "extract_segment_pair", "extract_segments"]
 
 IntArray = NDArray[np.int64]
 
@@ -204,15 +207,15 @@ class ImageSegments:
         )
 
 
-def _check_gray(gray: object) -> NDArray[np.uint8]:
+def _check_gray(gray: object, name: str) -> NDArray[np.uint8]:
     if not isinstance(gray, np.ndarray):
-        raise ValueError(f"gray must be a numpy array, got {type(gray).__name__}")
+        raise ValueError(f"{name} must be a numpy array, got {type(gray).__name__}")
     if gray.dtype != np.uint8:
-        raise ValueError(f"gray must have dtype uint8, got {gray.dtype}")
+        raise ValueError(f"{name} must have dtype uint8, got {gray.dtype}")
     if gray.ndim != 2:
-        raise ValueError(f"gray must have shape (H, W), got {gray.shape}")
+        raise ValueError(f"{name} must have shape (H, W), got {gray.shape}")
     if gray.shape[0] < 8 or gray.shape[1] < 8:
-        raise ValueError(f"gray must be at least 8x8 pixels, got {gray.shape}")
+        raise ValueError(f"{name} must be at least 8x8 pixels, got {gray.shape}")
     return np.ascontiguousarray(gray)
 
 
@@ -297,8 +300,8 @@ def extract_segments(
         ValueError: ``gray`` is not a 2-D uint8 array of at least 8x8 pixels, or an option is out
             of range.
     """
-    img = _check_gray(gray)
-    _check_options(
+    img = _check_gray(gray, "gray")
+    options = _Options(
         sigma_px,
         bias_sigma_px,
         min_length_px,
@@ -310,9 +313,87 @@ def extract_segments(
         side_px,
         near_px,
     )
-    H, W = img.shape
-    shape = (H, W)
+    _check_options(*options)
+    return _fit([img], [_detect(img, options.lsd_scale)], options)[0]
 
+
+def extract_segment_pair(
+    left: NDArray[np.uint8], right: NDArray[np.uint8], **options: Any
+) -> tuple[ImageSegments, ImageSegments]:
+    """The segments of both images of a rectified pair: ``extract_segments`` of each, faster.
+
+    The two line detections run at once (OpenCV releases the interpreter lock; one worker thread
+    per process), and the edge points of both images are re-localised and fitted in one
+    vectorised pass. The result is identical to ``(extract_segments(left, **options),
+    extract_segments(right, **options))``.
+
+    Args:
+        left: (H, W) uint8 left image.
+        right: (H, W) uint8 right image, the same shape.
+        **options: The keyword options of :func:`extract_segments`.
+
+    Returns:
+        ``(left_segments, right_segments)``.
+
+    Raises:
+        ValueError: An image is not a 2-D uint8 array of at least 8x8 pixels, the shapes differ,
+            or an option is unknown or out of range.
+    """
+    img_l = _check_gray(left, "left")
+    img_r = _check_gray(right, "right")
+    if img_l.shape != img_r.shape:
+        raise ValueError(
+            f"left and right must have the same shape, got {img_l.shape}, {img_r.shape}"
+        )
+    unknown = set(options) - set(_Options._fields)
+    if unknown:
+        raise ValueError(f"unknown option(s) of extract_segment_pair: {sorted(unknown)}")
+    opts = _Options(**{**_DEFAULTS, **options})
+    _check_options(*opts)
+    job = _worker().submit(_detect, img_r, opts.lsd_scale)
+    lines_l = _detect(img_l, opts.lsd_scale)
+    lines_r = job.result()
+    segs_l, segs_r = _fit([img_l, img_r], [lines_l, lines_r], opts)
+    return segs_l, segs_r
+
+
+class _Options(NamedTuple):
+    """The keyword options of :func:`extract_segments`, with their defaults."""
+
+    sigma_px: float = 0.5
+    bias_sigma_px: float = 0.1
+    min_length_px: float = 12.0
+    min_angle_deg: float = 25.0
+    min_gradient: float = 5.0
+    lsd_scale: float = 0.5
+    search_px: int = 3
+    trim_px: int = 2
+    side_px: int = 3
+    near_px: float = 1.5
+
+
+_DEFAULTS: dict[str, Any] = _Options()._asdict()
+
+
+# ------------------------------------------------------------------ the worker thread
+_WORKER: tuple[int, ThreadPoolExecutor] | None = None
+_WORKER_LOCK = threading.Lock()
+
+
+def _worker() -> ThreadPoolExecutor:
+    """This process's one worker thread (made again in a forked child, where the parent's
+    thread does not exist)."""
+    global _WORKER
+    pid = os.getpid()
+    with _WORKER_LOCK:
+        if _WORKER is None or _WORKER[0] != pid:
+            _WORKER = (pid, ThreadPoolExecutor(1, thread_name_prefix="lsd"))
+        return _WORKER[1]
+
+
+# ------------------------------------------------------------------ detection and fitting
+def _detect(img: NDArray[np.uint8], lsd_scale: float) -> FloatArray:
+    """LSD lines of ``img``, (N, 4) float64 ``x0, y0, x1, y1`` full-resolution px, N >= 0."""
     if lsd_scale == 0.5:
         # one pyramid level (cv2.pyrDown: 5x5 Gaussian, every other pixel) and LSD at scale 1 on
         # it: about 0.15 ms faster per image than LSD's own Gaussian resampling at 0.5, with as
@@ -323,9 +404,29 @@ def extract_segments(
         raw = _lsd(float(lsd_scale)).detect(img)[0]
         to_full = 1.0
     if raw is None:
-        return ImageSegments.empty(shape)
+        return np.zeros((0, 4))
     # OpenCV 4 returns (N, 1, 4), OpenCV 5 (N, 4): always flatten to (N, 4)
-    lines = np.asarray(raw, dtype=np.float64).reshape(-1, 4) * to_full
+    return np.asarray(raw, dtype=np.float64).reshape(-1, 4) * to_full
+
+
+def _fit(
+    images: list[NDArray[np.uint8]], detected: list[FloatArray], opts: _Options
+) -> list[ImageSegments]:
+    """Re-localise and fit the LSD lines of each image (same shapes), all in one pass.
+
+    The images are stacked vertically in one padded array for the pixel gathers; every other
+    quantity is computed in each image's own rows, so the result for one image does not depend on
+    the others.
+    """
+    H, W = images[0].shape
+    shape = (H, W)
+    sigma_px, bias_sigma_px, min_length_px, min_angle_deg, min_gradient = opts[:5]
+    search_px, trim_px, side_px, near_px = opts.search_px, opts.trim_px, opts.side_px, opts.near_px
+    n_img = len(images)
+    lines = np.concatenate(detected) if n_img > 1 else detected[0].copy()
+    image_of = np.repeat(np.arange(n_img), [len(d) for d in detected])
+    if lines.shape[0] == 0:
+        return [ImageSegments.empty(shape) for _ in images]
     # order each segment top -> bottom
     swap = lines[:, 1] > lines[:, 3]
     lines[swap] = lines[swap][:, [2, 3, 0, 1]]
@@ -341,8 +442,8 @@ def extract_segments(
     )
     nseg = keep.size
     if nseg == 0:
-        return ImageSegments.empty(shape)
-    x0, y0, r0, r1 = x0[keep], y0[keep], r0[keep], r1[keep]
+        return [ImageSegments.empty(shape) for _ in images]
+    x0, y0, r0, r1, image_of = x0[keep], y0[keep], r0[keep], r1[keep], image_of[keep]
     inv_slope = (x1[keep] - x0) / dv[keep]  # du/dv of the LSD line
 
     # ------------------------------------------------------------ edge points, one per row
@@ -353,16 +454,19 @@ def extract_segments(
     rows = np.arange(total) + np.repeat(r0 - starts, counts)
     u_line = (x0 - inv_slope * y0)[seg] + inv_slope[seg] * rows  # the LSD line in each row
     # a (total, 2 * B + 1) block of pixels around the LSD line in each row, columns
-    # c_pred - B .. c_pred + B, from a replicate-padded copy (B covers the gradient window, the
-    # peak's neighbours and the side samples)
+    # c_pred - B .. c_pred + B, from a replicate-padded copy of the stacked images (B covers the
+    # gradient window, the peak's neighbours and the side samples)
     B = search_px + max(side_px, math.ceil(near_px) + 1)
     nb = 2 * B + 1
     c_pred = np.minimum(np.maximum(np.rint(u_line).astype(np.int64), -B), W - 1 + B)
-    pad = cv2.copyMakeBorder(img, 0, 0, 2 * B, 2 * B, cv2.BORDER_REPLICATE)
+    stacked = images[0] if n_img == 1 else np.concatenate(images)
+    pad = cv2.copyMakeBorder(stacked, 0, 0, 2 * B, 2 * B, cv2.BORDER_REPLICATE)
     # pixel (row, c_pred + B + o) of the padded image, o = 0 .. nb - 1, by flat index (cheaper
-    # than fancy indexing a sliding-window view)
-    first_px = rows * pad.shape[1] + (c_pred + B)
+    # than fancy indexing a sliding-window view); image k's rows start at k * H
+    pad_rows = rows if n_img == 1 else rows + (image_of * H)[seg]
+    first_px = pad_rows * pad.shape[1] + (c_pred + B)
     blk = pad.ravel().take(first_px[:, None] + np.arange(nb)).astype(np.float32)
+
     # central-difference gradient at offsets -search_px - 1 .. search_px + 1 from c_pred
     lo = B - search_px - 1
     nwin = 2 * search_px + 1
@@ -396,7 +500,7 @@ def extract_segments(
         & (col < W - 1 + search_px)
     )
     if idx_v.size == 0:
-        return ImageSegments.empty(shape)
+        return [ImageSegments.empty(shape) for _ in images]
     seg_v = seg[idx_v]
     rel_u = (k[idx_v] - search_px) + off[idx_v].astype(np.float64)  # edge column - c_pred
     nv = idx_v.size
@@ -459,27 +563,34 @@ def extract_segments(
     seg_len = np.hypot(u1 - u0, v1 - v0)
     ok &= (v1 > v0) & (seg_len >= min_length_px) & ((v1 - v0) >= sin_min * seg_len)
     sel = np.flatnonzero(ok)
-    if sel.size == 0:
-        return ImageSegments.empty(shape)
-    endpoints = np.empty((sel.size, 2, 2))
-    endpoints[:, 0, 0] = u0[sel]
-    endpoints[:, 0, 1] = v0[sel]
-    endpoints[:, 1, 0] = u1[sel]
-    endpoints[:, 1, 1] = v1[sel]
-    return ImageSegments._trusted(
-        shape,
-        endpoints=endpoints,
-        u_center=uc[sel],
-        v_center=vc[sel],
-        slope=slope[sel],
-        point_var=point_var[sel],
-        n_points=n_int[sel].astype(np.int64),
-        s_vv=svv[sel],
-        bias_var=np.full(sel.size, float(bias_sigma_px) ** 2),
-        polarity=polarity[sel],
-        contrast=grey[sel, 0],
-        grey_left=grey[sel, 1],
-        grey_right=grey[sel, 2],
-        grey_left_near=grey[sel, 3],
-        grey_right_near=grey[sel, 4],
-    )
+    out = []
+    for k in range(n_img):
+        mine = sel[image_of[sel] == k] if n_img > 1 else sel
+        if mine.size == 0:
+            out.append(ImageSegments.empty(shape))
+            continue
+        endpoints = np.empty((mine.size, 2, 2))
+        endpoints[:, 0, 0] = u0[mine]
+        endpoints[:, 0, 1] = v0[mine]
+        endpoints[:, 1, 0] = u1[mine]
+        endpoints[:, 1, 1] = v1[mine]
+        out.append(
+            ImageSegments._trusted(
+                shape,
+                endpoints=endpoints,
+                u_center=uc[mine],
+                v_center=vc[mine],
+                slope=slope[mine],
+                point_var=point_var[mine],
+                n_points=n_int[mine].astype(np.int64),
+                s_vv=svv[mine],
+                bias_var=np.full(mine.size, float(bias_sigma_px) ** 2),
+                polarity=polarity[mine],
+                contrast=grey[mine, 0],
+                grey_left=grey[mine, 1],
+                grey_right=grey[mine, 2],
+                grey_left_near=grey[mine, 3],
+                grey_right_near=grey[mine, 4],
+            )
+        )
+    return out

@@ -68,7 +68,7 @@ from modeling.matching import StereoMatches, match_candidates, match_segments
 from modeling.observation import FloorObservation
 from modeling.pipeline import to_gray
 from modeling.rig import HeadPose, StereoRig
-from modeling.segments import extract_segments
+from modeling.segments import extract_segment_pair
 from modeling.triangulation import triangulate_to_floor
 
 HEAD_HEIGHT_M = 0.8
@@ -271,8 +271,7 @@ def evaluate_view(
     te, tm, tt = [], [], []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        sl = extract_segments(gl)
-        sr = extract_segments(gr)
+        sl, sr = extract_segment_pair(gl, gr)
         t1 = time.perf_counter()
         matches = match_segments(sl, sr, rig)
         t2 = time.perf_counter()

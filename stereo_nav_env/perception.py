@@ -30,7 +30,7 @@ from modeling.matching import match_segments
 from modeling.model import EnvironmentModel, build_model
 from modeling.pipeline import to_gray
 from modeling.rig import HeadPose, StereoRig
-from modeling.segments import extract_segments
+from modeling.segments import extract_segment_pair
 from modeling.triangulation import triangulate_to_floor
 
 __all__ = [
@@ -188,8 +188,7 @@ def perceive(
         The :class:`ComparableModel`.
     """
     watch = stopwatch if stopwatch is not None else Stopwatch()
-    segs_l = extract_segments(to_gray(left, "left"))
-    segs_r = extract_segments(to_gray(right, "right"))
+    segs_l, segs_r = extract_segment_pair(to_gray(left, "left"), to_gray(right, "right"))
     watch.lap("segments")
     matches = match_segments(segs_l, segs_r, rig)
     watch.lap("matching")

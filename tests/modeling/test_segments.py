@@ -231,3 +231,78 @@ def test_constructor_defaults_and_read_only_arrays() -> None:
 def _fields(segs: ImageSegments) -> dict[str, object]:
     names = ImageSegments.__dataclass_fields__
     return {name: getattr(segs, name) for name in names}
+
+
+def _textured_pair(seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Random bars of random slant and contrast, the right image a shifted, noisier copy."""
+    rng = np.random.default_rng(seed)
+    H, W = 240, 320
+    vv, uu = np.mgrid[0:H, 0:W]
+    left = np.full((H, W), 90.0)
+    for _ in range(12):
+        c, w, s = rng.uniform(10, 300), rng.uniform(4, 30), rng.uniform(-0.3, 0.3)
+        v0, v1 = sorted(rng.uniform(0, H, 2))
+        inside = (uu >= c + s * (vv - 120)) & (uu < c + w + s * (vv - 120)) & (vv >= v0) & (vv < v1)
+        left[inside] = rng.uniform(20, 235)
+    right = np.roll(left, -7, axis=1) + rng.normal(0, 3, (H, W))
+    left = left + rng.normal(0, 2, (H, W))
+    return (
+        np.clip(np.rint(left), 0, 255).astype(np.uint8),
+        np.clip(np.rint(right), 0, 255).astype(np.uint8),
+    )
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_pair_extraction_is_identical_to_each_image_alone(seed: int) -> None:
+    left, right = _textured_pair(seed)
+    pair = segments_module.extract_segment_pair(left, right, min_length_px=10.0)
+    alone = (
+        extract_segments(left, min_length_px=10.0),
+        extract_segments(right, min_length_px=10.0),
+    )
+    assert len(pair[0]) > 3 and len(pair[1]) > 3
+    for got, want in zip(pair, alone, strict=True):
+        assert _fields(got).keys() == _fields(want).keys()
+        for name, value in _fields(want).items():
+            np.testing.assert_array_equal(_fields(got)[name], value, err_msg=name)
+
+
+def test_pair_extraction_with_one_blank_image() -> None:
+    left, _ = _textured_pair(0)
+    blank = np.full_like(left, 128)
+    segs_l, segs_r = segments_module.extract_segment_pair(left, blank)
+    assert len(segs_l) == len(extract_segments(left)) > 0
+    assert len(segs_r) == 0 and segs_r.image_shape == left.shape
+
+
+def test_pair_extraction_rejects_bad_input_naming_it() -> None:
+    left, right = _textured_pair(1)
+    with pytest.raises(ValueError, match="right"):
+        segments_module.extract_segment_pair(left, right.astype(np.float32))
+    with pytest.raises(ValueError, match="same shape"):
+        segments_module.extract_segment_pair(left, right[:, :200])
+    with pytest.raises(ValueError, match="min_length_pixels"):
+        segments_module.extract_segment_pair(left, right, min_length_pixels=3.0)
+    with pytest.raises(ValueError, match="search_px"):
+        segments_module.extract_segment_pair(left, right, search_px=9)
+
+
+def _extract_in_child(conn: object) -> None:
+    left, right = _textured_pair(2)
+    segs_l, segs_r = segments_module.extract_segment_pair(left, right)
+    conn.send((len(segs_l), len(segs_r)))  # type: ignore[attr-defined]
+
+
+def test_pair_extraction_works_in_a_forked_child() -> None:
+    # the parent's worker thread does not exist in a fork: the child must make its own
+    import multiprocessing as mp
+
+    left, right = _textured_pair(2)
+    want = tuple(len(s) for s in segments_module.extract_segment_pair(left, right))
+    ctx = mp.get_context("fork")
+    parent, child = ctx.Pipe()
+    proc = ctx.Process(target=_extract_in_child, args=(child,))
+    proc.start()
+    assert parent.poll(30), "the forked child hung"
+    assert parent.recv() == want
+    proc.join(10)
