@@ -18,6 +18,7 @@ from gymnasium import spaces
 from numpy.typing import NDArray
 
 from modeling.model import EnvironmentModel
+from modeling.pipeline import to_gray
 from modeling.rig import HeadPose, StereoRig
 from stereo_nav_env.actions import DISCRETE_ACTIONS, continuous_command, discrete_command
 from stereo_nav_env.config import EnvConfig
@@ -193,6 +194,8 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self.world: World | None = None
         self.model: EnvironmentModel | None = None
         self.last_timings_ms: dict[str, float] = {}
+        self._clean_pair: tuple[UInt8Image, UInt8Image] | None = None
+        self._noise: NDArray[np.int16] | None = None
         self._pair: tuple[UInt8Image, UInt8Image] | None = None
         self._geodesic: GeodesicField | None = None
         self._truth: GroundTruth | None = None
@@ -236,8 +239,19 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     def render_stereo(self) -> tuple[UInt8Image, UInt8Image]:
         """The noisy rectified pair of the latest observation: copies, uint8 (H, W, 3) each."""
         self._require_world()
-        assert self._pair is not None
-        return self._pair[0].copy(), self._pair[1].copy()
+        left, right = self._noisy_pair()
+        return left.copy(), right.copy()
+
+    def _noisy_pair(self) -> tuple[UInt8Image, UInt8Image]:
+        """The latest pair with its pixel noise (made on first use, then kept)."""
+        if self._pair is None:
+            assert self._clean_pair is not None
+            left, right = self._clean_pair
+            if self._noise is not None:
+                left = add_pixel_noise(left, self._noise[0])
+                right = add_pixel_noise(right, self._noise[1])
+            self._pair = (left, right)
+        return self._pair
 
     def _get_renderer(self) -> StereoRenderer:
         assert self.scene is not None
@@ -255,15 +269,18 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         noise = draw_pixel_noise(self.np_random, rig.height_px, rig.width_px, cfg.pixel_noise_std)
         watch.lap("noise")
         head = self.head_pose
-        left, right = self._get_renderer().render_stereo(head)
+        self._clean_pair = self._get_renderer().render_stereo(head)
         watch.lap("render")
+        # the pipeline sees the noisy grey images; the noisy RGB pair (the same noise on every
+        # channel) is made only when someone asks for it (images observation, render_stereo)
+        self._noise, self._pair = noise, None
+        grey = [to_gray(image) for image in self._clean_pair]
         if noise is not None:
-            left, right = add_pixel_noise(left, noise[0]), add_pixel_noise(right, noise[1])
+            grey = [add_pixel_noise(g, n) for g, n in zip(grey, noise, strict=True)]
         watch.lap("noise")
-        self._pair = (left, right)
         self.model = perceive(
-            left,
-            right,
+            grey[0],
+            grey[1],
             self.rig,
             head,
             robot_width_m=cfg.robot_width_m,
@@ -282,6 +299,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         if cfg.observation.has_model:
             obs.update(pack_model(self.model, pose, cfg.observation))
         if cfg.observation.has_images:
+            left, right = self._noisy_pair()
             obs["left"], obs["right"] = left.copy(), right.copy()
         watch.lap("packing")
         return obs
@@ -415,7 +433,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             gaze_rad=state.gaze_rad,
             robot_radius_m=self.config.robot_radius_m,
             goal_radius_m=self.config.goal_radius_m,
-            left_image=None if self._pair is None else self._pair[0],
+            left_image=None if self._clean_pair is None else self._noisy_pair()[0],
             caption="\n".join(lines),
         )
 

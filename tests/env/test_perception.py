@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import math
 import pickle
 
+import cv2
 import numpy as np
 import pytest
 import shapely
+from scipy.stats import norm
 
 from modeling.model import EnvironmentModel, build_model
 from modeling.observation import FloorObservation, FloorSegment
@@ -22,24 +25,34 @@ from stereo_nav_env.perception import (
 
 
 def test_pixel_noise_is_gaussian_with_the_configured_sigma_and_seeded() -> None:
-    noise = draw_pixel_noise(np.random.default_rng(0), 240, 320, 2.5)
-    assert noise.shape == (2, 240, 320) and noise.dtype == np.float32
-    assert abs(noise.mean()) < 0.02 and noise.std() == pytest.approx(2.5, rel=0.01)
-    # standard normal quantiles: about 4.55 % beyond 2 sigma, 0.27 % beyond 3 sigma
-    assert np.mean(np.abs(noise) > 5.0) == pytest.approx(0.0455, abs=0.002)
-    assert np.mean(np.abs(noise) > 7.5) == pytest.approx(0.0027, abs=0.0006)
+    sigma = 2.5
+    noise = draw_pixel_noise(np.random.default_rng(0), 240, 320, sigma)
+    assert noise.shape == (2, 240, 320) and noise.dtype == np.int16
+    # whole grey levels: the variance of a rounded normal is sigma^2 + 1/12
+    assert abs(noise.mean()) < 0.02
+    assert noise.std() == pytest.approx(math.sqrt(sigma**2 + 1 / 12), rel=0.01)
+    # |noise| >= 5 where |sigma z| >= 4.5, |noise| >= 8 where |sigma z| >= 7.5 (3 sigma)
+    assert np.mean(np.abs(noise) >= 5) == pytest.approx(2 * norm.sf(4.5 / sigma), abs=0.002)
+    assert np.mean(np.abs(noise) >= 8) == pytest.approx(2 * norm.sf(7.5 / sigma), abs=0.0006)
     assert abs(np.corrcoef(noise[0].ravel(), noise[1].ravel())[0, 1]) < 0.01
-    again = draw_pixel_noise(np.random.default_rng(0), 240, 320, 2.5)
+    again = draw_pixel_noise(np.random.default_rng(0), 240, 320, sigma)
     assert np.array_equal(noise, again)
     assert draw_pixel_noise(np.random.default_rng(0), 240, 320, 0.0) is None
 
 
-def test_adding_noise_rounds_saturates_and_keeps_the_grey_level_noise() -> None:
+def test_adding_noise_saturates_and_keeps_the_grey_level_noise() -> None:
     image = np.array([[[0, 100, 255], [10, 10, 10]]], dtype=np.uint8)
-    noise = np.array([[-1.6, 2.4]], dtype=np.float32)
+    noise = np.array([[-2, 2]], dtype=np.int16)
     out = add_pixel_noise(image, noise)
     assert out.tolist() == [[[0, 98, 253], [12, 12, 12]]]
     assert add_pixel_noise(image, None) is image
+    # the grey image of the noisy RGB image is the noisy grey image (no channel saturating)
+    rng = np.random.default_rng(1)
+    rgb = rng.integers(20, 236, (60, 80, 3), dtype=np.uint8)
+    noise = draw_pixel_noise(rng, 60, 80, 3.0)[0]
+    grey_of_noisy = cv2.cvtColor(add_pixel_noise(rgb, noise), cv2.COLOR_RGB2GRAY)
+    noisy_grey = add_pixel_noise(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY), noise)
+    assert np.array_equal(grey_of_noisy, noisy_grey)
 
 
 def _model(shift: float = 0.0) -> EnvironmentModel:
