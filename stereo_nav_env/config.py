@@ -169,7 +169,8 @@ class EnvConfig:
         focal_px: Focal length, pixels.
         baseline_m: Stereo baseline, metres.
         pixel_noise_std: Standard deviation of the Gaussian noise added to every pixel, grey
-            levels (the same value to its three channels; 0 = none), drawn from ``np_random``.
+            levels (rounded to whole grey levels, the same value on its three channels; 0 =
+            none), drawn from ``np_random``.
         max_speed_m_s: Forward speed at ``action[0] = 1``, m/s (backwards at -1).
         max_turn_rate_rad_s: Turn rate at ``action[1] = 1``, rad/s (counter-clockwise).
         max_pan_rate_rad_s: Largest head pan rate, rad/s.
