@@ -145,15 +145,22 @@ def _windows(
     lo = np.maximum(-w, m_u - _K_SIGMA * s_u)
     hi = np.minimum(w, m_u + _K_SIGMA * s_u)
     valid = hi > lo
-    t_lo = np.arcsin(np.clip(lo / w, -1.0, 1.0))
-    t_hi = np.arcsin(np.clip(hi / w, -1.0, 1.0))
-    step = np.arccos(np.clip(np.abs(m_v) / w, 0.0, 1.0))
-    peak = np.arcsin(np.clip(m_u / w, -1.0, 1.0))
-    near_lo = np.arcsin(np.clip((m_u - 2.0 * s_u) / w, -1.0, 1.0))
-    near_hi = np.arcsin(np.clip((m_u + 2.0 * s_u) / w, -1.0, 1.0))
-    inner = np.stack([-step, step, peak, near_lo, near_hi], axis=1)
-    inner = np.clip(inner, t_lo[:, None], t_hi[:, None])
-    bps = np.sort(np.concatenate([t_lo[:, None], inner, t_hi[:, None]], axis=1), axis=1)
+    # ``x.clip`` is the ufunc of ``np.clip`` without its Python-level dispatch (small arrays).
+    t_lo = np.arcsin((lo / w).clip(-1.0, 1.0))
+    t_hi = np.arcsin((hi / w).clip(-1.0, 1.0))
+    step = np.arccos((np.abs(m_v) / w).clip(0.0, 1.0))
+    # Columns: t_lo, then -step, step, the peak and the peak -+ 2 s_u (clipped to the window),
+    # then t_hi.
+    bps = np.empty((m_u.shape[0], 7))
+    bps[:, 0] = t_lo
+    bps[:, 1] = -step
+    bps[:, 2] = step
+    bps[:, 3] = np.arcsin((m_u / w).clip(-1.0, 1.0))
+    bps[:, 4] = np.arcsin(((m_u - 2.0 * s_u) / w).clip(-1.0, 1.0))
+    bps[:, 5] = np.arcsin(((m_u + 2.0 * s_u) / w).clip(-1.0, 1.0))
+    bps[:, 6] = t_hi
+    bps[:, 1:6] = bps[:, 1:6].clip(t_lo[:, None], t_hi[:, None])
+    bps.sort(axis=1)
     return bps, t_lo, valid
 
 
@@ -231,10 +238,10 @@ def _p_inside_batch(mu: FloatArray, S: FloatArray, w: FloatArray) -> FloatArray:
     inside = w - dist > _K_SCREEN_BATCH * s_v
     out[inside] = 1.0
     todo = ~(outside | inside)
-    if not np.any(todo):
+    if not todo.any():
         return out
     smooth = todo & _smooth(m_u, s_u, s_v, w)
-    idx = np.flatnonzero(smooth)
+    idx = smooth.nonzero()[0]
     rows = _NODE_BLOCK // _GH_NODES.shape[0]
     for b0 in range(0, idx.shape[0], rows):
         k = idx[b0 : b0 + rows, None]
@@ -242,11 +249,11 @@ def _p_inside_batch(mu: FloatArray, S: FloatArray, w: FloatArray) -> FloatArray:
         h = np.sqrt(w[k] * w[k] - u * u)
         mv_, sv_ = np.abs(m_v[k]), s_v[k]
         inner = special.ndtr((h - mv_) / sv_) - special.ndtr((-h - mv_) / sv_)
-        out[k[:, 0]] = np.clip(inner @ _GH_WEIGHTS, 0.0, 1.0)
+        out[k[:, 0]] = (inner @ _GH_WEIGHTS).clip(0.0, 1.0)
     todo &= ~smooth
-    if not np.any(todo):
+    if not todo.any():
         return out
-    idx = np.flatnonzero(todo)
+    idx = todo.nonzero()[0]
     mu_, su, mv, sv, ww = m_u[idx], s_u[idx], m_v[idx], s_v[idx], w[idx]
     bps, _, valid = _windows(mu_, su, mv, sv, ww)
     # Panels between consecutive distinct breakpoints (in tau = tan(theta / 2)); empty panels
@@ -269,7 +276,7 @@ def _p_inside_batch(mu: FloatArray, S: FloatArray, w: FloatArray) -> FloatArray:
         vals = _integrand_tau(tau, mu_[pr], su[pr], mv[pr], sv[pr], ww[pr])
         panel_sums[b0:b1] = (vals @ _GL_WEIGHTS) * half[b0:b1]
     res = np.bincount(pair, weights=panel_sums, minlength=idx.shape[0])
-    out[idx] = np.clip(res, 0.0, 1.0)
+    out[idx] = res.clip(0.0, 1.0)
     return out
 
 
@@ -391,9 +398,11 @@ def gap_passable_probability_batch(
 def passable_from_difference(mu: FloatArray, S: FloatArray, width_m: FloatArray) -> FloatArray:
     """``P(||d|| > w)`` for ``d ~ N(mu, S)``: mu (m, 2), S (m, 2, 2), width (m,); no validation."""
     w = np.asarray(width_m, dtype=np.float64)
-    out = np.ones(mu.shape[0])
     pos = w > 0
-    if np.any(pos):
+    if pos.all():  # the usual case (one robot width): no need to select
+        return 1.0 - _p_inside_batch(mu, S, w)
+    out = np.ones(mu.shape[0])
+    if pos.any():
         out[pos] = 1.0 - _p_inside_batch(mu[pos], S[pos], w[pos])
     return out
 

@@ -59,7 +59,9 @@ Frames: world, metres; covariances m^2; probabilities in [0, 1].
 
 from __future__ import annotations
 
+import functools
 import heapq
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -283,14 +285,15 @@ def _components(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
     j = np.asarray(j, dtype=np.int64)
     while i.shape[0]:
         ri, rj = parent[i], parent[j]
-        split = ri != rj
-        if not np.any(split):
+        split = (ri != rj).nonzero()[0]
+        if split.shape[0] == 0:
             break
         i, j, ri, rj = i[split], j[split], ri[split], rj[split]
         np.minimum.at(parent, np.maximum(ri, rj), np.minimum(ri, rj))
         while True:
             grand = parent[parent]
-            if np.array_equal(grand, parent):
+            # (``np.array_equal`` costs several times this on the small arrays seen here.)
+            if (grand == parent).all():
                 break
             parent = grand
     return parent
@@ -313,18 +316,22 @@ def _split(arr: np.ndarray, counts: np.ndarray) -> list[np.ndarray]:
     return [arr[b[k] : b[k + 1]] for k in range(len(b) - 1)]
 
 
-def _hulls(points: FloatArray, index: np.ndarray, n: int, grow_m: float) -> list[FloatArray]:
+def _hulls(
+    points: FloatArray, index: np.ndarray, n: int, grow_m: float | FloatArray
+) -> list[FloatArray]:
     """Convex hulls (each (m, 2), counter-clockwise, not closed) of point sets (vectorised).
 
     A degenerate hull (all points on a line, or one point) becomes the rectangle around that
     segment at distance ``grow_m``, so every polygon has an area. Sets of two points are handled
-    in numpy, the others by GEOS (shapely).
+    in numpy, the others by GEOS (shapely). Every set is computed on its own (GEOS per geometry,
+    numpy row-wise or per set), so a set's hull does not depend on the other sets of the call:
+    callers batch as many sets as they can into one call to share its fixed cost.
 
     Args:
         points: (p, 2) points, metres.
         index: (p,) sorted set index of each point, in [0, n).
         n: Number of sets (every set non-empty).
-        grow_m: Half-thickness of degenerate hulls, metres.
+        grow_m: Half-thickness of degenerate hulls, metres: one for all sets, or (n,) per set.
 
     Returns:
         ``n`` read-only (m, 2) arrays.
@@ -334,7 +341,7 @@ def _hulls(points: FloatArray, index: np.ndarray, n: int, grow_m: float) -> list
         return out
     counts = np.bincount(index, minlength=n)
     flat = counts <= 2  # a hull of at most two points is flat: no need for GEOS
-    big = np.flatnonzero(~flat)
+    big = (~flat).nonzero()[0]
     if big.shape[0]:
         sel = ~flat[index]
         rank = np.cumsum(~flat) - 1
@@ -363,11 +370,11 @@ def _hulls(points: FloatArray, index: np.ndarray, n: int, grow_m: float) -> list
         ):
             if not is_thin:
                 out[c] = r[:-1] if a2 > 0 else r[:0:-1]  # the ring repeats its first vertex
-    if np.any(flat):
+    deg = flat.nonzero()[0]
+    if deg.shape[0]:
         # A collinear set's hull is the segment between its extreme points (or a point): from
         # the set's first point, the direction to its farthest point, then the extreme
         # projections on that direction.
-        deg = np.flatnonzero(flat)
         sel = flat[index]
         pts = points[sel]
         which = (np.cumsum(flat) - 1)[index[sel]]
@@ -382,13 +389,86 @@ def _hulls(points: FloatArray, index: np.ndarray, n: int, grow_m: float) -> list
         t = np.einsum("ij,ij->i", rel, axis[which])
         a_ = pts[first] + np.minimum.reduceat(t, first)[:, None] * axis
         b_ = pts[first] + np.maximum.reduceat(t, first)[:, None] * axis
-        nrm = np.stack([-axis[:, 1], axis[:, 0]], axis=1) * grow_m
-        tang = axis * grow_m
+        grow = np.asarray(grow_m, dtype=np.float64)
+        if grow.ndim:
+            grow = grow[deg][:, None]
+        nrm = np.stack([-axis[:, 1], axis[:, 0]], axis=1) * grow
+        tang = axis * grow
         rects = np.stack([a_ - tang - nrm, b_ + tang - nrm, b_ + tang + nrm, a_ - tang + nrm], 1)
         rects.setflags(write=False)
         for k, c in enumerate(deg.tolist()):
             out[c] = rects[k]
     return out
+
+
+class _Partition:
+    """What one situation's active items make: obstacles, and relation rows between them.
+
+    Computed for every situation first (:func:`_partition`), so that the obstacles and region
+    polygons that no earlier situation built are built for all situations in one batch
+    (:meth:`_Context.prepare`) before the situations are assembled (:func:`_assemble`).
+
+    Attributes:
+        n_obst: Number of obstacles.
+        items: (k,) active items sorted by (obstacle, item index).
+        counts: (n_obst,) number of items of each obstacle.
+        bounds: Where each obstacle's items start in ``items`` (n_obst + 1 entries).
+        keys: Cache key of each obstacle (its items' bytes).
+        imp_rows: (q,) rows of the impassable relations inside obstacles (ascending).
+        link_obst: (q,) obstacle of each of those rows.
+        oi: (m,) obstacle of each relation's first item (-1: inactive).
+        oj: (m,) obstacle of each relation's second item.
+        und: Undecided rows between obstacles grouped by pair (see :func:`_pair_groups`).
+        region_rows: The rows of each group of ``und``.
+        region_keys: Cache key of each group (its rows' bytes).
+        pas_rows: (p,) short passable rows between obstacles (ascending).
+    """
+
+    __slots__ = (
+        "bounds",
+        "counts",
+        "imp_rows",
+        "items",
+        "keys",
+        "link_obst",
+        "n_obst",
+        "oi",
+        "oj",
+        "pas_rows",
+        "region_keys",
+        "region_rows",
+        "und",
+    )
+
+    def __init__(
+        self,
+        *,
+        items: np.ndarray,
+        counts: np.ndarray,
+        imp_rows: np.ndarray,
+        link_obst: np.ndarray,
+        oi: np.ndarray,
+        oj: np.ndarray,
+        und: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+        pas_rows: np.ndarray,
+    ) -> None:
+        self.n_obst = int(counts.shape[0])
+        self.items = items
+        self.counts = counts
+        self.bounds = [0, *np.cumsum(counts).tolist()]
+        self.keys = [
+            items[self.bounds[c] : self.bounds[c + 1]].tobytes() for c in range(self.n_obst)
+        ]
+        self.imp_rows = imp_rows
+        self.link_obst = link_obst
+        self.oi = oi
+        self.oj = oj
+        self.und = und
+        rows, starts = und[0], und[1]
+        stops = [*starts[1:].tolist(), rows.shape[0]] if starts.shape[0] else []
+        self.region_rows = [rows[s0:s1] for s0, s1 in zip(starts.tolist(), stops, strict=True)]
+        self.region_keys = [r.tobytes() for r in self.region_rows]
+        self.pas_rows = pas_rows
 
 
 class _Context:
@@ -406,6 +486,7 @@ class _Context:
         item_segment: np.ndarray,
         item_candidate: np.ndarray,
         outline_buffer_m: float,
+        passage_max_m: float,
     ) -> None:
         self.ends = ends
         self.rel = rel
@@ -421,90 +502,88 @@ class _Context:
         self.links.setflags(write=False)
         self.is_imp = rel.kind == _IMP
         self.is_und = rel.kind == _UND
-        self.is_pas = rel.kind == _PAS
+        # Passable relations short enough to be a passage (the same in every situation).
+        self.is_short_pas = (rel.kind == _PAS) & (rel.distance_m <= passage_max_m)
 
-    def obstacles(
-        self, items: np.ndarray, counts: np.ndarray, link_rows: np.ndarray, link_obst: np.ndarray
-    ) -> list[Obstacle]:
-        """The obstacles of one situation (cached by member items).
-
-        Args:
-            items: (k,) active items sorted by (obstacle, item index).
-            counts: (n_obst,) number of items of each obstacle.
-            link_rows: (q,) rows of the impassable relations inside obstacles (ascending).
-            link_obst: (q,) obstacle of each of those rows.
-        """
-        n_obst = counts.shape[0]
-        bounds = [0, *np.cumsum(counts).tolist()]
-        keys = [items[bounds[c] : bounds[c + 1]].tobytes() for c in range(n_obst)]
-        todo = [c for c, k in enumerate(keys) if k not in self.obstacle_cache]
-        if todo:
-            self._build_obstacles(items, counts, np.asarray(todo), link_rows, link_obst, keys)
-        return [self.obstacle_cache[k] for k in keys]
-
-    def _build_obstacles(
-        self,
-        items: np.ndarray,
-        counts: np.ndarray,
-        todo: np.ndarray,
-        link_rows: np.ndarray,
-        link_obst: np.ndarray,
-        keys: list[bytes],
-    ) -> None:
-        """Build (vectorised) and cache the obstacles ``todo`` of :meth:`obstacles`."""
-        n_obst = counts.shape[0]
-        t = todo.shape[0]
-        new_id = np.full(n_obst, -1, dtype=np.int64)
-        new_id[todo] = np.arange(t)
-        ob = new_id[np.repeat(np.arange(n_obst), counts)]
-        keep = ob >= 0
-        it, ob = items[keep], ob[keep]  # items of the obstacles to build, grouped by obstacle
-        cnt = counts[todo]
+    def prepare(self, parts: list[_Partition]) -> None:
+        """Build and cache, in one batch, the obstacles and region polygons of ``parts`` that
+        are not cached yet (each once, from the first situation that has it)."""
+        new_keys: list[bytes] = []  # the new obstacles, in the order of their new id
+        seen: set[bytes] = set()
+        it_parts: list[np.ndarray] = []  # their items, grouped by new id
+        ob_parts: list[np.ndarray] = []  # the new id of each of those items
+        link_parts: list[np.ndarray] = []  # their impassable links (relation rows)
+        lob_parts: list[np.ndarray] = []  # the new id of each of those links
+        new_regions: dict[bytes, np.ndarray] = {}
+        for part in parts:
+            todo = []
+            for c, key in enumerate(part.keys):
+                if key not in self.obstacle_cache and key not in seen:
+                    seen.add(key)
+                    todo.append(c)
+            if todo:
+                # Vectorised selection of the new obstacles' items and links (new ids follow
+                # the obstacle order, so items stay grouped by new id).
+                new_id = np.full(part.n_obst, -1, dtype=np.int64)
+                new_id[todo] = np.arange(len(new_keys), len(new_keys) + len(todo))
+                new_keys.extend(part.keys[c] for c in todo)
+                ob = new_id[np.repeat(np.arange(part.n_obst), part.counts)]
+                keep = ob >= 0
+                it_parts.append(part.items[keep])
+                ob_parts.append(ob[keep])
+                lob = new_id[part.link_obst]
+                lk = lob >= 0
+                link_parts.append(part.imp_rows[lk])
+                lob_parts.append(lob[lk])
+            for key, rows in zip(part.region_keys, part.region_rows, strict=True):
+                if key not in self.region_cache and key not in new_regions:
+                    new_regions[key] = rows
+        if not new_keys and not new_regions:
+            return
+        t = len(new_keys)
+        empty = np.zeros(0, dtype=np.int64)
+        it = np.concatenate(it_parts) if t else empty
+        ob = np.concatenate(ob_parts) if t else empty
+        link_rows = np.concatenate(link_parts) if t else empty
+        lob = np.concatenate(lob_parts) if t else empty
+        cnt = np.bincount(ob, minlength=t)
+        lcnt = np.bincount(lob, minlength=t)
         pts = self.ends[it].reshape(-1, 2)
-        hulls = _hulls(pts, np.repeat(ob, 2), t, self.outline_buffer_m)
+        # One hull computation for the obstacles and the regions (points of the regions: the
+        # closest points of their relations), each kind with its own degenerate half-width.
+        region_rows = list(new_regions.values())
+        r_pts = self.links[np.concatenate(region_rows)].reshape(-1, 2) if region_rows else pts[:0]
+        r_cnt = np.array([2 * r.shape[0] for r in region_rows], dtype=np.int64)
+        n_sets = t + len(region_rows)
+        grow = np.concatenate((np.full(t, self.outline_buffer_m), np.full(len(region_rows), 0.05)))
+        hulls = _hulls(
+            np.concatenate((pts, r_pts)),
+            np.repeat(np.arange(n_sets), np.concatenate((2 * cnt, r_cnt))),
+            n_sets,
+            grow,
+        )
+        for key, h in zip(new_regions, hulls[t:], strict=True):
+            self.region_cache[key] = h
+        if t == 0:
+            return
         # Skeleton: the obstacle's segments, then its impassable links (closest points).
-        lk = new_id[link_obst] >= 0
-        lob = new_id[link_obst[lk]]
-        key = np.concatenate((ob, lob))
-        order = np.argsort(key, kind="stable")
-        lines = np.concatenate([self.ends[it], self.links[link_rows[lk]]])[order]
-        line_parts = _split(lines, cnt + np.bincount(lob, minlength=t))
+        order = np.argsort(np.concatenate((ob, lob)), kind="stable")
+        lines = np.concatenate([self.ends[it], self.links[link_rows]])[order]
+        line_parts = _split(lines, cnt + lcnt)
         pt_parts = _split(pts, 2 * cnt)
         seg_of = self.item_segment[it].tolist()
         cand_of = self.item_candidate[it].tolist()
         start = 0
-        for k, c in enumerate(todo.tolist()):
-            stop = start + int(cnt[k])
-            self.obstacle_cache[keys[c]] = Obstacle(
+        for k, (key, n_items) in enumerate(zip(new_keys, cnt.tolist(), strict=True)):
+            stop = start + n_items
+            self.obstacle_cache[key] = Obstacle(
                 points=pt_parts[k],
                 polygon=hulls[k],
-                segments=tuple(s for s in seg_of[start:stop] if s >= 0),
-                candidates=tuple((a, b) for a, b in cand_of[start:stop] if a >= 0),
+                segments=tuple([s for s in seg_of[start:stop] if s >= 0]),
+                candidates=tuple([(a, b) for a, b in cand_of[start:stop] if a >= 0]),
                 lines=line_parts[k],
             )
             start = stop
-
-    def region_polygons(self, rows: np.ndarray, starts: np.ndarray) -> list[FloatArray]:
-        """Convex hulls of the relation endpoints of each group of rows (cached).
-
-        Args:
-            rows: (k,) relation rows, grouped.
-            starts: (g,) index in ``rows`` where each group starts.
-        """
-        bounds = np.concatenate((starts, [rows.shape[0]]))
-        keys = [rows[bounds[c] : bounds[c + 1]].tobytes() for c in range(starts.shape[0])]
-        todo = [c for c, k in enumerate(keys) if k not in self.region_cache]
-        if len(todo) == len(keys):  # all new (the first situation): no need to select
-            sel, cnt = rows, np.diff(bounds)
-        elif todo:
-            sel = np.concatenate([rows[bounds[c] : bounds[c + 1]] for c in todo])
-            cnt = np.array([bounds[c + 1] - bounds[c] for c in todo])
-        if todo:
-            pts = self.links[sel].reshape(-1, 2)
-            hulls = _hulls(pts, np.repeat(np.arange(len(todo)), 2 * cnt), len(todo), 0.05)
-            for c, h in zip(todo, hulls, strict=True):
-                self.region_cache[keys[c]] = h
-        return [self.region_cache[k] for k in keys]
 
     def moments(self, rows: np.ndarray) -> tuple[list[float], list[float]]:
         """Mean and standard deviation (metres) of the width of each relation row (cached)."""
@@ -541,30 +620,65 @@ def _pair_groups(
     key = lo * (n_obst + 1) + hi
     srt = np.lexsort((within[rows], key))
     rows, key = rows[srt], key[srt]
-    starts = np.flatnonzero(np.concatenate(([True], key[1:] != key[:-1])))
+    starts = np.concatenate(([True], key[1:] != key[:-1])).nonzero()[0]
     return rows, starts, lo[srt][starts], hi[srt][starts]
 
 
-def _regions(
-    ctx: _Context, rows: np.ndarray, oi: np.ndarray, oj: np.ndarray, n_obst: int
-) -> list[CriticalRegion]:
-    """One critical region per obstacle pair with undecided relations ``rows`` between them.
+def _partition(ctx: _Context, active: np.ndarray) -> _Partition:
+    """Obstacles of the situation whose items are ``active``, and its relations between them."""
+    rel = ctx.rel
+    n = active.shape[0]
+    both = active[rel.i] & active[rel.j]
+    imp_rows = (both & ctx.is_imp).nonzero()[0]
+    labels = _components(n, rel.i[imp_rows], rel.j[imp_rows])
+    act_idx = active.nonzero()[0]
+    # Obstacles numbered in order of their smallest item (a component's label): the roots (the
+    # active items that are their own label) in ascending order.
+    act_labels = labels[act_idx]
+    roots = act_idx[act_labels == act_idx]
+    obst_of_root = np.empty(n, dtype=np.int64)
+    obst_of_root[roots] = np.arange(roots.shape[0])
+    obst_active = obst_of_root[act_labels]
+    obst_of_item = np.full(n, -1, dtype=np.int64)
+    obst_of_item[act_idx] = obst_active
+    oi = obst_of_item[rel.i]
+    oj = obst_of_item[rel.j]
+    between = both & (oi != oj)
+    n_obst = roots.shape[0]
+    und_rows = (between & ctx.is_und).nonzero()[0]
+    # The narrowest relation of a region is its least passable one (first in its group).
+    und = (
+        _pair_groups(und_rows, oi, oj, n_obst, rel.p_passable)
+        if und_rows.shape[0]
+        else (und_rows, und_rows, und_rows, und_rows)
+    )
+    return _Partition(
+        items=act_idx[np.argsort(obst_active, kind="stable")],
+        counts=np.bincount(obst_active, minlength=n_obst),
+        imp_rows=imp_rows,
+        link_obst=obst_of_item[rel.i[imp_rows]],
+        oi=oi,
+        oj=oj,
+        und=und,
+        pas_rows=(between & ctx.is_short_pas).nonzero()[0],
+    )
+
+
+def _regions(ctx: _Context, part: _Partition) -> list[CriticalRegion]:
+    """One critical region per obstacle pair with undecided relations between them.
 
     Args:
-        ctx: The model's context.
-        rows: (k,) undecided relation rows between two different obstacles of the situation.
-        oi: (m,) obstacle of each relation's first item (-1: inactive).
-        oj: (m,) obstacle of each relation's second item.
-        n_obst: Number of obstacles.
+        ctx: The model's context (region polygons already built by :meth:`_Context.prepare`).
+        part: The situation's partition.
     """
+    rows, starts, ra, rb = part.und
     if rows.size == 0:
         return []
     rel = ctx.rel
-    # The narrowest relation of a region is its least passable one (first in its group).
-    rows, starts, ra, rb = _pair_groups(rows, oi, oj, n_obst, rel.p_passable)
-    stops = np.concatenate((starts[1:], [rows.shape[0]]))
+    oi, oj = part.oi, part.oj
+    stops = [*starts[1:].tolist(), rows.shape[0]]
     narrowest = rows[starts]
-    polys = ctx.region_polygons(rows, starts)
+    polys = [ctx.region_cache[k] for k in part.region_keys]
     w_mean, w_std = ctx.moments(narrowest)
     narrow_pts = list(_oriented(ctx, narrowest, oi[narrowest] <= oj[narrowest]))
     rel_lines = ctx.links[rows]
@@ -590,23 +704,23 @@ def _regions(
             rel.p_passable[narrowest].tolist(),
             narrow_pts,
             starts.tolist(),
-            stops.tolist(),
+            stops,
             strict=True,
         )
     ]
 
 
-def _passages(
-    ctx: _Context, rows: np.ndarray, oi: np.ndarray, oj: np.ndarray, n_obst: int
-) -> list[Passage]:
-    """The narrowest passage per obstacle pair among the passable relations ``rows``.
+def _passages(ctx: _Context, part: _Partition) -> list[Passage]:
+    """The narrowest passage per obstacle pair among the situation's short passable relations.
 
-    Args: as :func:`_regions`, with passable rows at most 3 robot widths long.
+    Args: as :func:`_regions`.
     """
+    rows = part.pas_rows
     if rows.size == 0:
         return []
     rel = ctx.rel
-    rows, starts, ra, rb = _pair_groups(rows, oi, oj, n_obst, rel.distance_m)
+    oi, oj = part.oi, part.oj
+    rows, starts, ra, rb = _pair_groups(rows, oi, oj, part.n_obst, rel.distance_m)
     first = rows[starts]
     narrow_pts = list(_oriented(ctx, first, oi[first] <= oj[first]))
     return [
@@ -623,51 +737,31 @@ def _passages(
     ]
 
 
-def _situation(
+def _situations(
     ctx: _Context,
-    active: np.ndarray,
-    probability: float,
-    choice: dict[int, int],
+    actives: list[np.ndarray],
+    probabilities: list[float],
+    choices: list[dict[int, int]],
     robot_width_m: float,
-    passage_max_m: float,
-) -> Situation:
-    """Obstacles, critical regions and passages of the situation whose items are ``active``."""
-    rel = ctx.rel
-    n = active.shape[0]
-    both = active[rel.i] & active[rel.j]
-    imp = both & ctx.is_imp
-    imp_rows = np.flatnonzero(imp)
-    labels = _components(n, rel.i[imp_rows], rel.j[imp_rows])
-    act_idx = np.flatnonzero(active)
-    # Obstacles numbered in order of their smallest item (a component's label).
-    roots, obst_active = np.unique(labels[act_idx], return_inverse=True)
-    obst_active = obst_active.reshape(-1)
-    n_obst = roots.shape[0]
-    obst_of_item = np.full(n, -1, dtype=np.int64)
-    obst_of_item[act_idx] = obst_active
-    items = act_idx[np.argsort(obst_active, kind="stable")]
-    counts = np.bincount(obst_active, minlength=n_obst)
-    obstacles = ctx.obstacles(items, counts, imp_rows, obst_of_item[rel.i[imp_rows]])
+) -> list[Situation]:
+    """Obstacles, critical regions and passages of each situation whose items are ``actives``.
 
-    oi = obst_of_item[rel.i]
-    oj = obst_of_item[rel.j]
-    between = both & (oi != oj)
-    regions = _regions(ctx, np.flatnonzero(between & ctx.is_und), oi, oj, n_obst)
-    passages = _passages(
-        ctx,
-        np.flatnonzero(between & ctx.is_pas & (rel.distance_m <= passage_max_m)),
-        oi,
-        oj,
-        n_obst,
-    )
-    return Situation(
-        probability=float(probability),
-        obstacles=tuple(obstacles),
-        critical_regions=tuple(regions),
-        choice=dict(sorted(choice.items())),
-        passages=tuple(passages),
-        robot_width_m=robot_width_m,
-    )
+    Three passes: the partitions of all situations, then one batch for every obstacle and region
+    polygon not cached yet, then the situations (their width moments in situation order).
+    """
+    parts = [_partition(ctx, active) for active in actives]
+    ctx.prepare(parts)
+    return [
+        Situation(
+            probability=float(probability),
+            obstacles=tuple(ctx.obstacle_cache[k] for k in part.keys),
+            critical_regions=tuple(_regions(ctx, part)),
+            choice=dict(sorted(choice.items())),
+            passages=tuple(_passages(ctx, part)),
+            robot_width_m=robot_width_m,
+        )
+        for part, probability, choice in zip(parts, probabilities, choices, strict=True)
+    ]
 
 
 def _occlusion(obs: FloorObservation, ends: FloatArray, n_rays: int = 361) -> Any:
@@ -686,10 +780,10 @@ def _occlusion(obs: FloorObservation, ends: FloatArray, n_rays: int = 361) -> An
     R = float(obs.max_range_m)
     half = 0.5 * float(obs.fov_rad)
     if ends.shape[0] == 0:
-        return shapely.Polygon()
+        return _EMPTY_POLYGON
     heading = float(obs.viewpoint[2])
     step = 2.0 * half / (n_rays - 1)
-    ang = heading + np.linspace(-half, half, n_rays)
+    ang = heading + _ray_offsets(half, n_rays)
     u = np.stack([np.cos(ang), np.sin(ang)], axis=1)  # (B, 2)
     p = ends[:, 0] - vp
     e = ends[:, 1] - ends[:, 0]
@@ -705,7 +799,7 @@ def _occlusion(obs: FloorObservation, ends: FloatArray, n_rays: int = 361) -> An
     cnt = np.where(ok, np.maximum(k1 - k0 + 1, 0), 0)
     total = int(cnt.sum())
     if total == 0:
-        return shapely.Polygon()
+        return _EMPTY_POLYGON
     seg = np.repeat(np.arange(ends.shape[0]), cnt)
     ray = k0[seg] + np.arange(total) - np.repeat(np.cumsum(cnt) - cnt, cnt)
     ux, uy = u[ray, 0], u[ray, 1]
@@ -718,8 +812,8 @@ def _occlusion(obs: FloorObservation, ends: FloatArray, n_rays: int = 361) -> An
     rng = np.full(n_rays, np.inf)
     np.minimum.at(rng, ray[hit], r[hit])
     blocked = rng < R
-    if not np.any(blocked):
-        return shapely.Polygon()
+    if not blocked.any():
+        return _EMPTY_POLYGON
     # Runs of consecutive blocked rays -> polygons: the hit points, then back along the range
     # arc, which reaches one ray beyond each end of the run (the shadow's edge lies between a
     # blocked and a free ray); this is the wedge minus the star polygon of the ray hits.
@@ -727,15 +821,32 @@ def _occlusion(obs: FloorObservation, ends: FloatArray, n_rays: int = 361) -> An
     run_lo = np.flatnonzero(edges == 1)
     run_hi = np.flatnonzero(edges == -1)  # exclusive
     far = vp + R * u
-    polys = [
-        shapely.Polygon(
-            np.vstack(
-                [vp + rng[s0:s1, None] * u[s0:s1], far[max(s0 - 1, 0) : min(s1 + 1, n_rays)][::-1]]
-            )
+    rings = [
+        np.vstack(
+            [vp + rng[s0:s1, None] * u[s0:s1], far[max(s0 - 1, 0) : min(s1 + 1, n_rays)][::-1]]
         )
         for s0, s1 in zip(run_lo.tolist(), run_hi.tolist(), strict=True)
     ]
-    return polys[0] if len(polys) == 1 else shapely.MultiPolygon(polys)
+    # All rings in one vectorised call (shapely closes each ring, as ``Polygon(shell)`` does).
+    sizes = [r.shape[0] for r in rings]
+    polys = shapely.polygons(
+        shapely.linearrings(np.concatenate(rings), indices=np.repeat(np.arange(len(rings)), sizes))
+    )
+    return polys[0] if len(rings) == 1 else shapely.multipolygons(polys)
+
+
+# The empty result of ``_occlusion`` (shapely geometries are immutable: one can be shared, and
+# building it costs more than the rest of a small occlusion sweep).
+_EMPTY_POLYGON = shapely.Polygon()
+
+
+@functools.lru_cache(maxsize=16)
+def _ray_offsets(half: float, n_rays: int) -> FloatArray:
+    """(n_rays,) ray angles relative to the heading, read-only (cached: the field of view of a
+    camera does not change between observations)."""
+    out = np.linspace(-half, half, n_rays)
+    out.setflags(write=False)
+    return out
 
 
 def _polygons_of(geom: Any) -> tuple[FloatArray, ...]:
@@ -888,35 +999,40 @@ def build_model(
     seg_pair = nonpass & is_seg[rel.i] & is_seg[rel.j]
     deg_seg = np.bincount(np.concatenate((rel.i[seg_pair], rel.j[seg_pair])), minlength=N)
     drop_seg = is_seg & (deg_seg == 0) & (length < min_len)
-    kept_segments = tuple(int(x) for x in np.flatnonzero(is_seg & ~drop_seg))
-    eliminated_segments = tuple(int(x) for x in np.flatnonzero(drop_seg))
+    kept_segments = tuple((is_seg & ~drop_seg).nonzero()[0].tolist())
+    eliminated_segments = tuple(drop_seg.nonzero()[0].tolist())
     deg_all = np.bincount(np.concatenate((rel.i[nonpass], rel.j[nonpass])), minlength=N)
     live_amb: list[int] = []
     eliminated_amb: list[int] = []
+    length_l, deg_l = length.tolist(), deg_all.tolist()  # Python scalars for the loop
     for a, ids in enumerate(cand_item):
-        if all(length[x] < min_len and deg_all[x] == 0 for x in ids):
+        if all(length_l[x] < min_len and deg_l[x] == 0 for x in ids):
             eliminated_amb.append(a)
         else:
             live_amb.append(a)
 
-    ctx = _Context(ends, rel, item_seg_arr, item_cand_arr, buf)
+    ctx = _Context(ends, rel, item_seg_arr, item_cand_arr, buf, 3.0 * width)
 
     # Fig. 7: units of ambiguous segments moving together.
     vp = np.asarray(observation.viewpoint[:2])
-    order_of: dict[int, np.ndarray] = {}
-    for a in live_amb:
-        mids = ends[cand_item[a]].mean(axis=1)
-        order_of[a] = np.argsort(np.hypot(*(mids - vp).T), kind="stable")
+    order_of: dict[int, list[int]] = {}
+    if live_amb:
+        # Distance of every item's midpoint from the viewpoint, then a stable sort per segment
+        # (Python's sort is stable, as ``argsort(kind="stable")`` was).
+        mid_dist = np.hypot(*(ends.mean(axis=1) - vp).T).tolist()
+        for a in live_amb:
+            ids = cand_item[a]
+            order_of[a] = sorted(range(len(ids)), key=lambda k, ids=ids: mid_dist[ids[k]])
     units = _group_moving_together(live_amb, cand_item, order_of, ends, width)
     unit_items: list[list[list[int]]] = []  # unit -> rank -> items
     unit_probs: list[np.ndarray] = []
     unit_cands: list[list[dict[int, int]]] = []
     for members in units:
         m = len(cand_item[members[0]])
-        unit_items.append([[cand_item[a][int(order_of[a][k])] for a in members] for k in range(m)])
+        unit_items.append([[cand_item[a][order_of[a][k]] for a in members] for k in range(m)])
         pr = np.mean([np.asarray(amb[a].probabilities)[order_of[a]] for a in members], axis=0)
         unit_probs.append(pr / pr.sum())
-        unit_cands.append([{a: int(order_of[a][k]) for a in members} for k in range(m)])
+        unit_cands.append([{a: order_of[a][k] for a in members} for k in range(m)])
 
     # Fig. 8: eliminate units whose every choice has the same effect (iterate to a fixed point).
     adjacency = _candidate_adjacency(rel, item_amb)
@@ -955,17 +1071,29 @@ def build_model(
     groups = _independent_groups(remaining, affected, unit_items, adjacency, item_amb, units)
 
     # Eq. 2: best-first enumeration of situations.
-    situations: list[Situation] = []
     order_u = [np.argsort(-unit_probs[u], kind="stable") for u in remaining]
     sorted_p = [unit_probs[u][o] for u, o in zip(remaining, order_u, strict=True)]
+    # Items and choice of each remaining unit's k-th most probable candidate rank.
+    ranked = [
+        [(unit_items[u][k], unit_cands[u][k]) for k in o.tolist()]
+        for u, o in zip(remaining, order_u, strict=True)
+    ]
+    actives: list[np.ndarray] = []
+    probs: list[float] = []
+    choices: list[dict[int, int]] = []
     for prob, state in _k_best(sorted_p, int(max_situations)):
         active = base_active.copy()
         choice: dict[int, int] = {}
-        for pos, u in enumerate(remaining):
-            k = int(order_u[pos][state[pos]])
-            active[unit_items[u][k]] = True
-            choice.update(unit_cands[u][k])
-        situations.append(_situation(ctx, active, prob, choice, width, 3.0 * width))
+        chosen: list[int] = []
+        for pos, rank in enumerate(state):
+            items, cands = ranked[pos][rank]
+            chosen.extend(items)
+            choice.update(cands)
+        active[chosen] = True
+        actives.append(active)
+        probs.append(prob)
+        choices.append(choice)
+    situations = _situations(ctx, actives, probs, choices, width)
     situations.sort(key=lambda s: -s.probability)
     total = math.fsum(s.probability for s in situations)
     residual = max(0.0, 1.0 - total)
@@ -995,7 +1123,7 @@ def build_model(
 def _group_moving_together(
     live: list[int],
     cand_item: list[list[int]],
-    order_of: dict[int, np.ndarray],
+    order_of: dict[int, list[int]],
     ends: FloatArray,
     width: float,
 ) -> list[list[int]]:
@@ -1014,9 +1142,11 @@ def _group_moving_together(
         E = np.stack([ends[cand_item[a]][order_of[a]] for a in members])  # (q, m, 2, 2)
         mids = E.mean(axis=2)
         disp = mids - mids[:, :1]  # (q, m, 2)
-        x, y = np.triu_indices(len(members), k=1)
+        # Every pair x < y of members, in row-major order (what ``np.triu_indices`` gives, at a
+        # fraction of its cost for the few members seen here).
+        x, y = np.array(list(itertools.combinations(range(len(members)), 2)), np.int64).T
         tol = 0.1 + 0.2 * np.hypot(disp[x, :, 0], disp[x, :, 1])
-        ok = np.all(np.hypot(*np.moveaxis(disp[x] - disp[y], -1, 0)) <= tol, axis=1)
+        ok = (np.hypot(*np.moveaxis(disp[x] - disp[y], -1, 0)) <= tol).all(axis=1)
         x, y = x[ok], y[ok]
         if x.size == 0:
             continue
@@ -1025,7 +1155,7 @@ def _group_moving_together(
         s, t = closest_points(ea[:, 0], ea[:, 1], eb[:, 0], eb[:, 1])
         pa = ea[:, 0] + s[:, None] * (ea[:, 1] - ea[:, 0])
         pb = eb[:, 0] + t[:, None] * (eb[:, 1] - eb[:, 0])
-        close = np.all((np.hypot(*(pa - pb).T) <= width).reshape(-1, m), axis=1)
+        close = (np.hypot(*(pa - pb).T) <= width).reshape(-1, m).all(axis=1)
         ii.append(np.array([pos[members[k]] for k in x[close]], dtype=np.int64))
         jj.append(np.array([pos[members[k]] for k in y[close]], dtype=np.int64))
     cat = (lambda v: np.concatenate(v)) if ii else (lambda v: np.zeros(0, dtype=np.int64))
@@ -1039,12 +1169,15 @@ def _group_moving_together(
 def _candidate_adjacency(rel: SegmentRelations, item_amb: np.ndarray) -> dict[int, dict[int, int]]:
     """For every candidate item: ``{other item: relation kind}`` of its non-passable relations."""
     adj: dict[int, dict[int, int]] = {}
-    rows = np.flatnonzero((rel.kind != _PAS) & ((item_amb[rel.i] >= 0) | (item_amb[rel.j] >= 0)))
-    for r in rows:
-        i, j, k = int(rel.i[r]), int(rel.j[r]), int(rel.kind[r])
-        if item_amb[i] >= 0:
+    rows = ((rel.kind != _PAS) & ((item_amb[rel.i] >= 0) | (item_amb[rel.j] >= 0))).nonzero()[0]
+    # Python ints (``tolist``) for the loop: numpy scalars would be converted row by row.
+    is_cand = (item_amb >= 0).tolist()
+    for i, j, k in zip(
+        rel.i[rows].tolist(), rel.j[rows].tolist(), rel.kind[rows].tolist(), strict=True
+    ):
+        if is_cand[i]:
             adj.setdefault(i, {})[j] = k
-        if item_amb[j] >= 0:
+        if is_cand[j]:
             adj.setdefault(j, {})[i] = k
     return adj
 
