@@ -216,6 +216,15 @@ class MatchCandidates:
         return int(self.left_index.shape[0])
 
 
+def _positive(value: float, name: str, *, allow_zero: bool = False) -> None:
+    """``positive``'s check, answered without numpy for a plain float in range (the defaults: the
+    env matches every step, and the numpy scalar checks cost a few percent of a match); anything
+    else goes to ``positive``, which raises the same errors as before."""
+    if type(value) is float and (0.0 <= value if allow_zero else 0.0 < value) and value < math.inf:
+        return
+    positive(value, name, allow_zero=allow_zero)
+
+
 def _check_segments(value: object, name: str) -> ImageSegments:
     if not isinstance(value, ImageSegments):
         raise ValueError(f"{name} must be an ImageSegments, got {type(value).__name__}")
@@ -243,9 +252,9 @@ def _check_inputs(
     checked = (_check_segments(left, "left"), _check_segments(right, "right"), _check_rig(rig))
     if not (0.0 <= min_overlap_frac <= 1.0):
         raise ValueError(f"min_overlap_frac must be in [0, 1], got {min_overlap_frac!r}")
-    positive(min_overlap_px, "min_overlap_px", allow_zero=True)
-    positive(max_angle_diff_deg, "max_angle_diff_deg")
-    positive(agree_px, "agree_px")
+    _positive(min_overlap_px, "min_overlap_px", allow_zero=True)
+    _positive(max_angle_diff_deg, "max_angle_diff_deg")
+    _positive(agree_px, "agree_px")
     for name, value in (
         ("max_grey_diff", max_grey_diff),
         ("max_near_grey_diff", max_near_grey_diff),
@@ -261,11 +270,9 @@ class _Candidates:
 
     li: IntArray
     rj: IntArray
-    lo: FloatArray  # first row of the overlap, px
-    hi: FloatArray  # last row of the overlap, px
+    rows: FloatArray  # (k, 2) first and last row of the overlap, px
     ov: FloatArray  # overlap, rows
-    d_lo: FloatArray  # disparity at lo, px
-    d_hi: FloatArray  # disparity at hi, px
+    disp: FloatArray  # (k, 2) disparity at those rows, px
     opposite: NDArray[np.bool_]
 
 
@@ -286,61 +293,52 @@ def _candidates(
     ``None`` when none does (see the module docstring)."""
     if len(left) == 0 or len(right) == 0:
         return None
+    # Every constraint is evaluated on the whole (nL, nR) grid and the pairs are gathered once at
+    # the end: with a few dozen segments per image the cost is the number of numpy calls, not the
+    # grid's size. Each grid entry is the same expression of the same two segments as on the
+    # gathered pairs, so the values are identical.
     v0L, v1L = left.endpoints[:, 0, 1], left.endpoints[:, 1, 1]
     v0R, v1R = right.endpoints[:, 0, 1], right.endpoints[:, 1, 1]
-    lo = np.maximum(v0L[:, None], v0R)
-    hi = np.minimum(v1L[:, None], v1R)
+    n_right = v0R.shape[0]
+    rows = np.empty((v0L.shape[0], n_right, 2))  # first and last row of the overlap, px
+    lo = np.maximum(v0L[:, None], v0R, out=rows[..., 0])
+    hi = np.minimum(v1L[:, None], v1R, out=rows[..., 1])
     ov = hi - lo
     ok = ov >= np.maximum(
         min_overlap_px, min_overlap_frac * np.minimum((v1L - v0L)[:, None], v1R - v0R)
     )
-    # the direction constraint on the (nL, nR) grid too: cheap, and it thins the pairs early
     ok &= np.abs(left.angle_rad[:, None] - right.angle_rad) <= math.radians(max_angle_diff_deg)
-    opposite_grid = left.polarity[:, None] != right.polarity
+    opposite = left.polarity[:, None] != right.polarity
     if not allow_opposite:
-        ok &= ~opposite_grid
-    li, rj = np.nonzero(ok)
-    if li.size == 0:
-        return None
-    lo, hi, ov, opposite = lo[li, rj], hi[li, rj], ov[li, rj], opposite_grid[li, rj]
+        ok &= ~opposite
     # photometric agreement of the four side samples: far left, far right, near left, near right
-    grey_l = np.stack(
-        [left.grey_left, left.grey_right, left.grey_left_near, left.grey_right_near], axis=1
-    )
-    grey_r = np.stack(
-        [right.grey_left, right.grey_right, right.grey_left_near, right.grey_right_near], axis=1
-    )
-    agree = np.abs(grey_l[li] - grey_r[rj]) <= np.array(
-        [max_grey_diff, max_grey_diff, max_near_grey_diff, max_near_grey_diff]
-    )
-    far_l, far_r, near_l, near_r = agree.T
-    photo_ok = np.where(
-        opposite, (far_l & near_l) | (far_r & near_r), (far_l | far_r) & near_l & near_r
-    )
+    far_l = np.abs(left.grey_left[:, None] - right.grey_left) <= max_grey_diff
+    far_r = np.abs(left.grey_right[:, None] - right.grey_right) <= max_grey_diff
+    near_l = np.abs(left.grey_left_near[:, None] - right.grey_left_near) <= max_near_grey_diff
+    near_r = np.abs(left.grey_right_near[:, None] - right.grey_right_near) <= max_near_grey_diff
+    ok &= np.where(opposite, (far_l & near_l) | (far_r & near_r), (far_l | far_r) & near_l & near_r)
     # disparity along the pair: d(v) = u_left(v) - u_right(v) = (a_l - a_r) + (s_l - s_r) v, with
-    # u(v) = a + s v the fitted lines
+    # u(v) = a + s v the fitted lines; evaluated at both ends of the overlap at once
     a_l = left.u_center - left.slope * left.v_center
     a_r = right.u_center - right.slope * right.v_center
-    d_a = a_l[li] - a_r[rj]
-    d_s = left.slope[li] - right.slope[rj]
-    d_lo = d_a + d_s * lo
-    d_hi = d_a + d_s * hi
+    d_a = a_l[:, None] - a_r
+    d_s = left.slope[:, None] - right.slope
+    disp = d_a[..., None] + d_s[..., None] * rows
+    d_lo, d_hi = disp[..., 0], disp[..., 1]
     dmin = max(rig.min_disparity_px - margin_px, 1e-3)
     dmax = rig.max_disparity_px + margin_px
-    keep = np.flatnonzero(
-        photo_ok & (np.minimum(d_lo, d_hi) >= dmin) & (np.maximum(d_lo, d_hi) <= dmax)
-    )
-    if keep.size == 0:
+    ok &= (np.minimum(d_lo, d_hi) >= dmin) & (np.maximum(d_lo, d_hi) <= dmax)
+    flat = np.flatnonzero(ok)  # row-major: sorted by left, then right index
+    if flat.size == 0:
         return None
+    li, rj = np.divmod(flat, n_right)
     return _Candidates(
-        li=li[keep],
-        rj=rj[keep],
-        lo=lo[keep],
-        hi=hi[keep],
-        ov=ov[keep],
-        d_lo=d_lo[keep],
-        d_hi=d_hi[keep],
-        opposite=opposite[keep],
+        li=li,
+        rj=rj,
+        rows=rows.reshape(-1, 2)[flat],
+        ov=ov.ravel()[flat],
+        disp=disp.reshape(-1, 2)[flat],
+        opposite=opposite.ravel()[flat],
     )
 
 
@@ -452,8 +450,8 @@ def match_candidates(
     return MatchCandidates(
         left_index=cand.li,
         right_index=cand.rj,
-        rows_px=np.stack([cand.lo, cand.hi], axis=1),
-        disparity_px=np.stack([cand.d_lo, cand.d_hi], axis=1),
+        rows_px=cand.rows,
+        disparity_px=cand.disp,
         opposite_polarity=cand.opposite,
         overlap_px=cand.ov,
     )
@@ -531,10 +529,10 @@ def match_segments(
         raise ValueError(f"opposite_weight must be in [0, 1], got {opposite_weight!r}")
     if not (0.0 < rel_peak <= 1.0):
         raise ValueError(f"rel_peak must be in (0, 1], got {rel_peak!r}")
-    positive(self_weight, "self_weight", allow_zero=True)
-    positive(smooth_px, "smooth_px")
-    positive(min_peak_sep_px, "min_peak_sep_px")
-    positive(sigma_v_px, "sigma_v_px")
+    _positive(self_weight, "self_weight", allow_zero=True)
+    _positive(smooth_px, "smooth_px")
+    _positive(min_peak_sep_px, "min_peak_sep_px")
+    _positive(sigma_v_px, "sigma_v_px")
     su, sv = (float(x) for x in region_sigma_px)
     if not (math.isfinite(su) and math.isfinite(sv) and su > 0 and sv > 0):
         raise ValueError(f"region_sigma_px must be two positive numbers, got {region_sigma_px!r}")
@@ -557,7 +555,7 @@ def match_segments(
         return StereoMatches.empty()
     li = cand.li
     n_cand = int(li.size)
-    d_mid = 0.5 * (cand.d_lo + cand.d_hi)
+    d_mid = 0.5 * (cand.disp[:, 0] + cand.disp[:, 1])
     weight = cand.ov * np.sqrt(1.0 + left.slope[li] ** 2)  # length of the overlapping part, px
     hist_weight = np.where(cand.opposite, opposite_weight * weight, weight)
 
@@ -577,7 +575,7 @@ def match_segments(
     new_row = np.empty(n_cand, dtype=bool)
     new_row[0] = True
     np.not_equal(li[1:], li[:-1], out=new_row[1:])
-    r = np.cumsum(new_row) - 1
+    r = new_row.cumsum() - 1
     rows = li[new_row]
     nrow = rows.size
     C = np.bincount(
@@ -595,9 +593,15 @@ def match_segments(
     half = math.ceil(min_peak_sep_px / _BIN_PX)
     padded = np.zeros((nrow, nbins + 2 * half))
     padded[:, half : half + nbins] = Hist
-    local_max = Hist.copy()
-    for shift in range(2 * half + 1):
-        np.maximum(local_max, padded[:, shift : shift + nbins], out=local_max)
+    # the maximum over each window of 2 half + 1 bins by doubling (a sparse table: max is exact,
+    # so overlapping halves give the same value as the bin-by-bin scan, in log2 numpy calls)
+    width = 2 * half + 1
+    win = padded  # win[:, j] = max(padded[:, j : j + w])
+    w = 1
+    while 2 * w <= width:
+        win = np.maximum(win[:, :-w], win[:, w:])
+        w *= 2
+    local_max = np.maximum(win[:, :nbins], win[:, width - w : width - w + nbins])
     is_peak = Hist == local_max
     is_peak[:, 1:] &= Hist[:, 1:] > Hist[:, :-1]
     is_peak &= (Hist >= rel_peak * top[:, None]) & (Hist > 0)
@@ -649,18 +653,21 @@ def match_segments(
 
     # ---------------------------------------------------------------- outputs
     rsel = cand.rj[sel]
-    v_ends = np.stack([cand.lo[sel], cand.hi[sel]], axis=1)
+    v_ends = cand.rows[sel]
     lcol = lsel[:, None]
     u_ends = left.u_at(lcol, v_ends)
     uvar_l = left.u_var_at(lcol, v_ends)
     uvar_r = right.u_var_at(rsel[:, None], v_ends)
-    disp = np.stack([cand.d_lo[sel], cand.d_hi[sel]], axis=1)
+    disp = cand.disp[sel]
+    left_endpoints = np.empty((sel.size, 2, 2))
+    left_endpoints[..., 0] = u_ends
+    left_endpoints[..., 1] = v_ends
     return StereoMatches._trusted(
         n_cand,
         left_index=lsel,
         right_index=rsel,
         probability=prob,
-        left_endpoints=np.stack([u_ends, v_ends], axis=-1),
+        left_endpoints=left_endpoints,
         disparity_px=disp,
         disparity_var=uvar_l + uvar_r,
         u_left_var=uvar_l,

@@ -29,6 +29,7 @@ several gives an ``AmbiguousSegment`` whose probabilities are renormalised over 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -85,15 +86,29 @@ def triangulate_points(
     return P, cov
 
 
+def _slot_setter(cls: type, name: str) -> Callable[[object, object], None]:
+    """The ``__set__`` of slot ``name`` of the slotted dataclass ``cls``: it writes the slot as
+    ``object.__setattr__`` does, without looking the name up on every call (about half the cost;
+    a triangulation builds a few dozen segments of four slots each)."""
+    setter: Callable[[object, object], None] = vars(cls)[name].__set__
+    return setter
+
+
+_set_endpoints = _slot_setter(FloorSegment, "endpoints")
+_set_cov = _slot_setter(FloorSegment, "cov")
+_set_height_m = _slot_setter(FloorSegment, "height_m")
+_set_source = _slot_setter(FloorSegment, "source")
+
+
 def _segment(ends: FloatArray, cov: FloatArray, heights: FloatArray, source: int) -> FloorSegment:
     """A ``FloorSegment`` from read-only views of arrays already checked in bulk (finite, symmetric
     positive definite): skips the per-segment validation of the constructor, which would cost more
     than the whole triangulation."""
     seg = object.__new__(FloorSegment)
-    object.__setattr__(seg, "endpoints", ends)
-    object.__setattr__(seg, "cov", cov)
-    object.__setattr__(seg, "height_m", heights)
-    object.__setattr__(seg, "source", source)
+    _set_endpoints(seg, ends)
+    _set_cov(seg, cov)
+    _set_height_m(seg, heights)
+    _set_source(seg, source)
     return seg
 
 
@@ -105,10 +120,26 @@ def _ambiguous(candidates: tuple[FloorSegment, ...], probs: list[float]) -> Ambi
     return amb
 
 
-def _readonly(arr: np.ndarray) -> np.ndarray:
-    arr = np.ascontiguousarray(arr)
-    arr.setflags(write=False)
-    return arr
+def _observation(
+    segments: tuple[FloorSegment, ...],
+    ambiguous: tuple[AmbiguousSegment, ...],
+    rig: StereoRig,
+    head_pose: HeadPose,
+) -> FloorObservation:
+    """A ``FloorObservation`` of segments built here, seen from a validated pose with a validated
+    rig: the viewpoint is finite (``HeadPose`` checks it), the field of view of a rig whose
+    principal point lies in the image is in (0, pi), its range is positive. Skips the constructor's
+    checks, which cost as much as the rest of a small triangulation; values are converted exactly
+    as the constructor does (``float``)."""
+    viewpoint = np.array([head_pose.x_m, head_pose.y_m, head_pose.heading_rad])
+    viewpoint.setflags(write=False)
+    obs = object.__new__(FloorObservation)
+    object.__setattr__(obs, "segments", segments)
+    object.__setattr__(obs, "ambiguous", ambiguous)
+    object.__setattr__(obs, "viewpoint", viewpoint)
+    object.__setattr__(obs, "fov_rad", float(rig.hfov_rad))
+    object.__setattr__(obs, "max_range_m", float(rig.max_depth_m))
+    return obs
 
 
 def triangulate_to_floor(
@@ -158,19 +189,6 @@ def triangulate_to_floor(
         )
     if not (0.0 <= min_probability < 1.0):
         raise ValueError(f"min_probability must be in [0, 1), got {min_probability!r}")
-    viewpoint = np.array([head_pose.x_m, head_pose.y_m, head_pose.heading_rad])
-
-    def observation(
-        segments: tuple[FloorSegment, ...] = (), ambiguous: tuple[AmbiguousSegment, ...] = ()
-    ) -> FloorObservation:
-        return FloorObservation(
-            segments=segments,
-            ambiguous=ambiguous,
-            viewpoint=viewpoint,
-            fov_rad=rig.hfov_rad,
-            max_range_m=rig.max_depth_m,
-        )
-
     # usable rows: probable enough, in front of the camera (positive disparity), finite (a NaN or
     # an infinity anywhere in a row makes the row's sum non-finite)
     d_all = matches.disparity_px
@@ -184,10 +202,9 @@ def triangulate_to_floor(
         (matches.probability >= min_probability) & (d_all.min(axis=1) > 0) & np.isfinite(row_sum)
     )
     if idx.size == 0:
-        return observation()
-    ends = matches.left_endpoints[idx]
-    u_e, v_e = ends[:, :, 0], ends[:, :, 1]  # (k, 2) each
-    d_e = matches.disparity_px[idx]
+        return _observation((), (), rig, head_pose)
+    v_e = matches.left_endpoints[idx, :, 1]  # (k, 2) rows of the two ends
+    d_e = d_all[idx]
     b = rig.baseline_m
     H = head_pose.height_m
     cy = rig.cy_px
@@ -195,46 +212,52 @@ def triangulate_to_floor(
 
     # --- clip to the height band: along the segment (t in [0, 1] from the top end) the row and the
     # disparity are affine, so the height h(t) = H - (v(t) - cy) b / d(t) is monotonic and crosses a
-    # given height at t = (k d0 - (v0 - cy) b) / (dv b - k dd), k = H - height
+    # given height at t = (k d0 - (v0 - cy) b) / (dv b - k dd), k = H - height; both band edges
+    # (columns: max_height_m, min_height_m) at once
     v0, d0 = v_e[:, 0], d_e[:, 0]
     dv = v_e[:, 1] - v0
     dd = d_e[:, 1] - d0
+    k_band = np.array([H - max_height_m, H - min_height_m])
     with np.errstate(divide="ignore", invalid="ignore"):
         h = H - (v_e - cy) * b / d_e  # (k, 2) heights of the two ends
-        k_top = H - max_height_m
-        k_bot = H - min_height_m
-        t_top = (k_top * d0 - (v0 - cy) * b) / (dv * b - k_top * dd)
-        t_bot = (k_bot * d0 - (v0 - cy) * b) / (dv * b - k_bot * dd)
+        t_band = (k_band * d0[:, None] - ((v0 - cy) * b)[:, None]) / (
+            (dv * b)[:, None] - k_band * dd[:, None]
+        )
     h0, h1 = h[:, 0], h[:, 1]
     falling = h0 >= h1  # the usual case: the height drops as the row increases
-    t_lo = np.where(falling, np.where(h0 > max_height_m, t_top, 0.0), 0.0)
-    t_lo = np.where(~falling & (h0 < min_height_m), t_bot, t_lo)
-    t_hi = np.where(falling, np.where(h1 < min_height_m, t_bot, 1.0), 1.0)
-    t_hi = np.where(~falling & (h1 > max_height_m), t_top, t_hi)
-    t_lo = np.minimum(np.maximum(t_lo, 0.0), 1.0)
-    t_hi = np.minimum(np.maximum(t_hi, 0.0), 1.0)
+    # the band edge each end leaves through: the higher end (the top one of a falling segment)
+    # through max_height_m, the lower one through min_height_m; an end beyond its edge is moved
+    # to the crossing, the others stay at t = 0 and 1
+    via_top = falling[:, None] == np.array([True, False])  # (k, 2)
+    outside = np.where(via_top, h > max_height_m, h < min_height_m)
+    T = np.where(outside, np.where(via_top, t_band[:, :1], t_band[:, 1:]), (0.0, 1.0))
+    T = np.minimum(np.maximum(T, 0.0), 1.0)
+    finite = np.isfinite(h) & np.isfinite(T)
     alive = (
-        np.all(np.isfinite(h), axis=1)
+        finite[:, 0]
+        & finite[:, 1]
         & (np.maximum(h0, h1) >= min_height_m)
         & (np.minimum(h0, h1) <= max_height_m)
-        & np.isfinite(t_lo)
-        & np.isfinite(t_hi)
-        & ((t_hi > t_lo) | (dv <= 0))
+        & ((T[:, 1] > T[:, 0]) | (dv <= 0))
     )
     sel = np.flatnonzero(alive)
     if sel.size == 0:
-        return observation()
+        return _observation((), (), rig, head_pose)
     idx = idx[sel]
-    T = np.stack([t_lo[sel], t_hi[sel]], axis=1)  # (k, 2)
-
-    def lerp(a: FloatArray) -> FloatArray:  # (k, 2) end values -> (k, 2) at the clipped ends
-        return a[:, :1] + (a[:, 1:] - a[:, :1]) * T
-
-    u = lerp(u_e[sel])
-    v = lerp(v_e[sel])
-    d = lerp(d_e[sel])
-    var_u = lerp(matches.u_left_var[idx])
-    var_d = lerp(matches.disparity_var[idx])
+    T = T[sel]  # (k, 2)
+    # the (k, 2) end values of u, v, d, var u and var d as one (5, k, 2) block, moved to the
+    # clipped ends in one interpolation
+    ends = matches.left_endpoints[idx]
+    block = np.stack(
+        [
+            ends[:, :, 0],
+            ends[:, :, 1],
+            d_all[idx],
+            matches.u_left_var[idx],
+            matches.disparity_var[idx],
+        ]
+    )
+    u, v, d, var_u, var_d = block[:, :, :1] + (block[:, :, 1:] - block[:, :, :1]) * T
     # (u, d) -> camera (X, Z); v only moves Y, the height, which the floor does not see
     inv_d = 1.0 / d
     bd = b * inv_d
@@ -260,32 +283,36 @@ def triangulate_to_floor(
     det = cov[..., 0, 0] * cov[..., 1, 1] - cov[..., 0, 1] ** 2
     # finite by construction (finite inputs, d > 0); a degenerate covariance (zero variances) is
     # not a normal distribution: such rows are dropped
-    good = np.flatnonzero(((cov[..., 0, 0] > 0) & (det > 0)).all(axis=1))
+    ok = (cov[..., 0, 0] > 0) & (det > 0)
+    good = np.flatnonzero(ok[:, 0] & ok[:, 1])
     if good.size == 0:
-        return observation()
+        return _observation((), (), rig, head_pose)
     # group the rows of each left segment, the most probable candidate first
     left_idx = matches.left_index[idx[good]]
     prob = matches.probability[idx[good]]
     order = np.lexsort((-prob, left_idx))
     rows = good[order]
-    gl = left_idx[order]
     gp = prob[order]
-    xy = _readonly(xy)
-    cov = _readonly(cov)
-    heights = _readonly(heights)
-    starts = [0, *(np.flatnonzero(gl[1:] != gl[:-1]) + 1).tolist()]
-    stops = [*starts[1:], gl.size]
-    rows_l = rows.tolist()
-    gl_l = gl.tolist()
+    # the rows in output order, read-only; each segment holds views of one row of these
+    xy, cov, heights = xy[rows], cov[rows], heights[rows]
+    for arr in (xy, cov, heights):
+        arr.setflags(write=False)
+    xy_l, cov_l, h_l = list(xy), list(cov), list(heights)
+    gl_l = left_idx[order].tolist()
     segments: list[FloorSegment] = []
     ambiguous: list[AmbiguousSegment] = []
-    for a, z in zip(starts, stops, strict=True):
+    n = len(gl_l)
+    a = 0
+    while a < n:  # one left segment per run of equal indices
         src = gl_l[a]
+        z = a + 1
+        while z < n and gl_l[z] == src:
+            z += 1
         if z - a == 1:
-            r = rows_l[a]
-            segments.append(_segment(xy[r], cov[r], heights[r], src))
-            continue
-        p = gp[a:z]
-        cands = tuple(_segment(xy[r], cov[r], heights[r], src) for r in rows_l[a:z])
-        ambiguous.append(_ambiguous(cands, (p / p.sum()).tolist()))
-    return observation(tuple(segments), tuple(ambiguous))
+            segments.append(_segment(xy_l[a], cov_l[a], h_l[a], src))
+        else:
+            p = gp[a:z]
+            cands = tuple(_segment(xy_l[r], cov_l[r], h_l[r], src) for r in range(a, z))
+            ambiguous.append(_ambiguous(cands, (p / p.sum()).tolist()))
+        a = z
+    return _observation(tuple(segments), tuple(ambiguous), rig, head_pose)
