@@ -140,6 +140,14 @@ class NavigatorConfig:
         keep_bumps_steps: Bumps younger than this survive such forgetting.
         backoff_steps: Steps of moving away after a bump (reversing, or forwards after a bump
             while reversing).
+        bump_mark_m: Length of the face marked by a bump whose contact normal was measured.
+        bump_guess_m: Length of the mark across the motion when the normal is unknown.
+        relax_keep_steps: When the memory leaves no route to the goal at all, bumps older than
+            this and what was seen are forgotten (the memory must hold a false obstacle).
+        shortcut_m: The follower joins a later part of the route passing this close to the robot
+            (a route that first steps back to a cell behind the robot and then passes it again).
+        gaze_ahead_m: The planner, when not looking at a gate, points its head at the route
+            this far ahead (0: straight ahead). Greedy and cautious always look straight ahead.
     """
 
     policy: Policy = Policy.PLANNER
@@ -163,6 +171,11 @@ class NavigatorConfig:
     forget_steps: int = 100
     keep_bumps_steps: int = 200
     backoff_steps: int = 4
+    bump_mark_m: float = 0.8
+    bump_guess_m: float = 1.0
+    relax_keep_steps: int = 30
+    shortcut_m: float = 0.15
+    gaze_ahead_m: float = 1.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "policy", Policy(self.policy))
@@ -260,18 +273,35 @@ class PlannerCore:
         self.gates.update(model, step)
 
     def bump(
-        self, pose: tuple[float, float, float, float], backwards: bool, step: int = 0
+        self,
+        pose: tuple[float, float, float, float],
+        backwards: bool,
+        step: int = 0,
+        normal: FloatArray | None = None,
     ) -> list[int]:
         """Record a collision at ``pose`` (at ``step``) while moving forwards (or backwards).
+
+        With a measured contact ``normal`` (unit, from the obstacle towards the robot) the mark is
+        a piece of the touched face: through the contact point, across the normal,
+        ``bump_mark_m`` long. Without one it is a guess: across the motion, in front of the body,
+        ``bump_guess_m`` long. The guess is what a mark across the heading was always: right for
+        a head-on contact, but for a contact at an angle or one beside the path it lies across
+        the free space next to the face, where it can close a doorway or the gap the robot was
+        sliding through (so the measured face is preferred whenever the motion gives one).
 
         Returns:
             Indices of the gates closed by it (those within reach of the robot).
         """
         x, y, heading, _ = pose
-        direction = heading + (math.pi if backwards else 0.0)
         r = 0.5 * self.width_m
+        if normal is not None:
+            direction = math.atan2(-float(normal[1]), -float(normal[0]))
+            length = self.config.bump_mark_m
+        else:
+            direction = heading + (math.pi if backwards else 0.0)
+            length = self.config.bump_guess_m
         front = np.array([x, y]) + (r + 0.05) * np.array([math.cos(direction), math.sin(direction)])
-        self.memory.add_bump(front, direction, 1.0, step)
+        self.memory.add_bump(front, direction, length, step)
         return self.gates.mark_failed(np.array([x, y]), r + 0.35)
 
     # ------------------------------------------------------------------ gate treatment
@@ -759,6 +789,7 @@ class ModelBasedAgent(Agent):
         self._contacts: list[tuple[int, FloatArray]] = []
         self._escape_heading: float | None = None
         self._slides = 0
+        self._escape_last = -10
 
     def _reset(self, seed: int | None) -> None:
         limits = control_limits(self.env)
@@ -768,6 +799,7 @@ class ModelBasedAgent(Agent):
             max_turn_rate_rps=limits.max_turn_rate_rad_s,
             dt_s=limits.dt_s,
             lookahead_m=0.35,
+            shortcut_m=self.config.shortcut_m,
         )
         self.decision = None
         self._since_plan = 0
@@ -785,6 +817,7 @@ class ModelBasedAgent(Agent):
         self._contacts = []
         self._escape_heading = None
         self._slides = 0
+        self._escape_last = -10
 
     def _act(self, obs: Any, info: dict[str, Any]) -> NDArray[np.floating]:
         assert self.core is not None and self._follower is not None
@@ -797,8 +830,8 @@ class ModelBasedAgent(Agent):
         replan = self.decision is None or self._since_plan >= cfg.replan_every
         if info.get("collision", False):
             backwards = self._last_forward < 0
-            core.bump(pose, backwards=backwards, step=self.steps)
-            self._note_contact(here)
+            normal = self._note_contact(here, heading)
+            core.bump(pose, backwards=backwards, step=self.steps, normal=normal)
             replan = True
             away = self._away_from_contacts()
             self._escape_heading = None
@@ -811,8 +844,11 @@ class ModelBasedAgent(Agent):
                 turn_steps = math.ceil(err / (lim.max_turn_rate_rad_s * lim.dt_s))
                 self._escape = cfg.backoff_steps + turn_steps
                 self._escape_heading = away
-            elif self._escape > 0:
-                # Bumped while escaping: the other way, twice at most, then re-plan from here.
+            elif self._escape > 0 or self.steps - self._escape_last <= 1:
+                # Bumped while escaping (or by its last step, as when a back-off meets what is
+                # behind just as it ends; taken as a fresh bump, that would back off forwards
+                # and bounce between the two for ever): the other way, twice at most, then
+                # re-plan from here.
                 self._escape_dir = -self._escape_dir
                 self._escape_flips += 1
                 self._escape = cfg.backoff_steps if self._escape_flips <= 2 else 0
@@ -839,6 +875,7 @@ class ModelBasedAgent(Agent):
         self._last_pose = (x, y, heading)
         if self._escape > 0:
             self._escape -= 1
+            self._escape_last = self.steps
             self.decision = None
             if self._escape_heading is None:
                 self._last_forward = 0.6 * self._escape_dir
@@ -852,6 +889,14 @@ class ModelBasedAgent(Agent):
             replan = replan or self._look_done(pose)
         if replan:
             self.decision = core.plan(pose)
+            if self.decision.mode is Mode.NONE:
+                # No route at all: the goal is reachable, so the memory holds a false obstacle
+                # (a bump mark across a gap, a phantom seen once). Keep only the recent bumps
+                # (what the robot is touching now is real) and plan again, rather than drive
+                # straight at the goal into what it already knows is there.
+                core.memory.forget(self.steps - cfg.relax_keep_steps)
+                core.forget_route()
+                self.decision = core.plan(pose)
             self._since_plan = 0
             if self.decision.mode is Mode.LOOK and self.decision.gate is not None:
                 core.looks_at[self.decision.gate] = core.looks_at.get(self.decision.gate, 0) + 1
@@ -861,6 +906,16 @@ class ModelBasedAgent(Agent):
         assert d is not None
         forward, turn = self._follower.command((x, y, heading), d.waypoints)
         pan_cmd = 0.0
+        if cfg.policy is Policy.PLANNER and cfg.gaze_ahead_m > 0 and d.mode is not Mode.LOOK:
+            # Look where the robot will be: at the route ``gaze_ahead_m`` ahead. Straight on,
+            # that is straight ahead; before a turn the head turns into it first, so the vertical
+            # edges of what lies round the corner (the two corners of a narrow box face, which
+            # make it an obstacle) are seen before the body turns into it.
+            ahead = self._follower.point_ahead(here, d.waypoints, cfg.gaze_ahead_m)
+            lim = core.limits
+            need = _wrap(math.atan2(*(ahead - here)[::-1]) - heading)
+            pan_cmd = float(np.clip(need, -lim.pan_limit_rad, lim.pan_limit_rad))
+            pan_cmd /= lim.pan_limit_rad
         if d.mode is Mode.LOOK and d.look_at is not None:
             lim = core.limits
             need = _wrap(math.atan2(*(d.look_at - here)[::-1]) - heading)
@@ -876,34 +931,43 @@ class ModelBasedAgent(Agent):
         self._last_forward = forward
         return np.array([forward, turn, pan_cmd])
 
-    def _note_contact(self, here: FloatArray) -> None:
+    def _note_contact(self, here: FloatArray, heading: float) -> FloatArray | None:
         """Estimate the contact normal of this step's collision from the motion it blocked.
 
-        The commanded displacement of the last step (``forward`` along the heading then) less the
-        displacement that happened is the part the obstacle stopped; the normal points the other
-        way. Sliding contact (almost nothing blocked) gives no measurement, only a guess of the
-        side, kept for the escape.
+        The commanded displacement of the last step (``forward`` along the chord of the arc
+        turned then) less the displacement that happened is the part the obstacle stopped: the
+        contact is frictionless, so that part lies along the normal, and the normal points the
+        other way. That holds for a sliding contact too (only a little is blocked, but along the
+        normal). When nothing measurable was blocked (the disc only just touched), only a guess
+        of the side is kept for the escape, and no normal is returned.
+
+        Returns:
+            The unit normal (from the obstacle towards the robot), or ``None``.
         """
         assert self.core is not None
         lim = self.core.limits
         x0, y0, h0 = self._last_pose
+        chord = h0 + 0.5 * _wrap(heading - h0)
         meant = (
             self._last_forward
             * lim.max_speed_m_s
             * lim.dt_s
-            * np.array([math.cos(h0), math.sin(h0)])
+            * np.array([math.cos(chord), math.sin(chord)])
         )
         blocked = meant - (here - np.array([x0, y0]))
         size = float(np.hypot(*blocked))
-        if size > 0.25 * float(np.hypot(*meant)) and size > 1e-3:
-            self._contacts.append((self.steps, -blocked / size))
-        elif self._last_forward != 0.0:
-            # Sliding along something beside the path: it lies to one side of the motion. Guess
+        if size > max(1e-3, 0.05 * float(np.hypot(*meant))):
+            normal = -blocked / size
+            self._contacts.append((self.steps, normal))
+            return normal
+        if self._last_forward != 0.0:
+            # Only touching something beside the path: it lies to one side of the motion. Guess
             # a side, alternating; a wrong guess bumps into it and measures the normal.
             self._slides += 1
             motion = h0 + (0.0 if self._last_forward > 0 else math.pi)
             side = motion + (math.pi / 2 if self._slides % 2 else -math.pi / 2)
             self._contacts.append((self.steps, 0.5 * np.array([math.cos(side), math.sin(side)])))
+        return None
 
     def _away_from_contacts(self, window: int = 12) -> float | None:
         """Heading away from the contacts of the last ``window`` steps (their mean normal)."""

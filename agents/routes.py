@@ -161,6 +161,12 @@ class PathFollower:
         dt_s: Duration of one control step, seconds.
         lookahead_m: Pure-pursuit look-ahead distance, metres.
         goal_tolerance_m: Distance at which the route's end counts as reached, metres.
+        shortcut_m: Pursue from the last part of the route that passes within this much of the
+            robot (0: always from the nearest part). A re-planned route can start
+            with a short step back (to the free cell nearest to a robot standing in a margin or
+            in a doorway) and then pass the robot again; pursuing from the nearest part would
+            turn the robot round on the spot for that step, and a fresh plan a few steps later
+            can turn it back. No obstacle fits between two parts of a route this close.
     """
 
     max_speed_mps: float
@@ -168,6 +174,7 @@ class PathFollower:
     dt_s: float
     lookahead_m: float = 0.4
     goal_tolerance_m: float = 0.1
+    shortcut_m: float = 0.0
 
     def command(self, pose: ArrayLike, waypoints: ArrayLike) -> tuple[float, float]:
         """Forward and turn commands in [-1, 1] moving ``pose`` (x, y, heading) along the route."""
@@ -189,7 +196,17 @@ class PathFollower:
             forward = 0.0
         return float(forward), turn
 
-    def _lookahead_point(self, here: FloatArray, pts: FloatArray) -> FloatArray:
+    def point_ahead(self, here: ArrayLike, waypoints: ArrayLike, distance_m: float) -> FloatArray:
+        """(2,) the point ``distance_m`` along the route ahead of the robot at ``here``."""
+        pts = np.asarray(waypoints, dtype=np.float64).reshape(-1, 2)
+        xy = np.asarray(here, dtype=np.float64).reshape(2)
+        if len(pts) == 0:
+            return xy
+        return self._lookahead_point(xy, pts, distance_m)
+
+    def _lookahead_point(
+        self, here: FloatArray, pts: FloatArray, lookahead_m: float | None = None
+    ) -> FloatArray:
         if len(pts) == 1:
             return pts[0]
         seg_a, seg_b = pts[:-1], pts[1:]
@@ -197,9 +214,11 @@ class PathFollower:
         length2 = np.maximum((d * d).sum(axis=1), 1e-12)
         t = np.clip(((here - seg_a) * d).sum(axis=1) / length2, 0.0, 1.0)
         closest = seg_a + t[:, None] * d
-        k = int(np.argmin(np.linalg.norm(closest - here, axis=1)))
+        dist = np.linalg.norm(closest - here, axis=1)
+        near = np.flatnonzero(dist <= self.shortcut_m)
+        k = int(near[-1]) if near.size else int(np.argmin(dist))
         # Walk forward along the polyline by the look-ahead distance from the closest point.
-        remaining = self.lookahead_m
+        remaining = self.lookahead_m if lookahead_m is None else lookahead_m
         point = closest[k]
         for i in range(k, len(seg_b)):
             step = float(np.linalg.norm(seg_b[i] - point))

@@ -149,3 +149,53 @@ def test_value_of_information_is_zero_for_a_useless_or_certain_look() -> None:
     exact = p * costs.via(1.0) + (1 - p) * costs.alt_m
     after = expected_after_measurement(0.52, 0.15, 1e-6, 0.5, costs.commit)
     assert after == pytest.approx(exact, abs=2e-3)
+
+
+# ------------------------------------------------------------------------------ bumps and following
+def test_a_bump_with_a_measured_normal_marks_the_face_not_across_the_heading() -> None:
+    """Sliding east along a wall below it (normal pointing south): the mark lies along the wall."""
+    core = _core("planner", (0, 0, 7, 6), (6.0, 1.0))
+    core.bump((3.0, 2.0, 0.0, 0.0), backwards=False, step=5, normal=np.array([0.0, -1.0]))
+    occupied = core.memory.occupied()
+
+    def marked(x: float, y: float) -> bool:
+        row, col = core.spec.cell_of(np.array([[x, y]]))[0]
+        return bool(occupied[row, col])
+
+    assert marked(2.75, 2.3) and marked(3.25, 2.3)  # along the face above the robot
+    assert not marked(3.3, 1.8) and not marked(3.3, 2.0)  # nothing across the way ahead
+
+
+def test_the_follower_does_not_turn_round_for_a_step_back() -> None:
+    """A route that steps back to a cell behind the robot and then passes it again."""
+    from agents.routes import PathFollower
+
+    route = np.array([[1.0, 1.0], [0.9, 1.0], [0.8, 1.0], [1.0, 1.02], [2.0, 1.0]])
+    kw = {"max_speed_mps": 0.5, "max_turn_rate_rps": math.pi / 2, "dt_s": 0.1, "lookahead_m": 0.35}
+    forward, _ = PathFollower(**kw).command((1.0, 1.0, 0.0), route)
+    assert forward == 0.0  # pursues the step back: turns round on the spot
+    forward, turn = PathFollower(shortcut_m=0.15, **kw).command((1.0, 1.0, 0.0), route)
+    assert forward > 0.5 and abs(turn) < 0.5
+
+
+def test_forgetting_old_bumps_reopens_a_map_they_closed(far_gap) -> None:
+    """Old bump marks closing every way leave no route (the agent then forgets them: relax)."""
+    far, _ = far_gap
+    core = _core("planner", (0, 0, 7, 6), (6.0, 2.5))
+    core.observe(far, 0)
+    for y in np.arange(0.2, 6.0, 0.5):
+        core.memory.add_bump(np.array([5.0, y]), 0.0, 0.6, step=1)
+    assert core.plan((1.0, 2.5, 0.0, 0.0)).mode is Mode.NONE
+    core.memory.forget(100 - core.config.relax_keep_steps)
+    assert core.plan((1.0, 2.5, 0.0, 0.0)).mode is not Mode.NONE
+
+
+def test_the_gaze_point_lies_round_the_next_corner_of_the_route() -> None:
+    """The planner points its head at the route 1 m ahead: round a corner 0.5 m ahead."""
+    from agents.routes import PathFollower
+
+    follower = PathFollower(max_speed_mps=0.5, max_turn_rate_rps=math.pi / 2, dt_s=0.1)
+    route = np.array([[0.0, 0.0], [0.5, 0.0], [0.5, -2.0]])
+    ahead = follower.point_ahead(np.array([0.0, 0.0]), route, 1.0)
+    assert ahead == pytest.approx([0.5, -0.5])
+    assert NavigatorConfig().gaze_ahead_m > 0
