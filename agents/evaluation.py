@@ -14,12 +14,14 @@ radius (the distance to the success region); SPL (Anderson et al., 2018) is
 
 By default collisions do not end an episode in the suite (``terminate_on_collision=False``): the
 robot stops at the obstacle, the collision is counted, and the agent may recover. The collision
-rate is the fraction of episodes with at least one collision.
+rate is the fraction of episodes with at least one collision; ``mean_collisions`` is the number of
+steps that ended in a collision, per episode (it tells a graze from a robot that keeps hitting).
 
 The summary per agent (:func:`summarize`) is the JSON contract of ARCHITECTURE.md::
 
-    {"planner": {"episodes": 32, "success_rate": ..., "collision_rate": ..., "spl": ...,
-                 "mean_steps": ..., "mean_looks": ..., "mean_episode_time_s": ...}, ...}
+    {"planner": {"episodes": 32, "success_rate": ..., "collision_rate": ...,
+                 "mean_collisions": ..., "spl": ..., "mean_steps": ..., "mean_looks": ...,
+                 "mean_episode_time_s": ...}, ...}
 """
 
 from __future__ import annotations
@@ -55,6 +57,7 @@ SUMMARY_KEYS = (
     "episodes",
     "success_rate",
     "collision_rate",
+    "mean_collisions",
     "spl",
     "mean_steps",
     "mean_looks",
@@ -306,6 +309,7 @@ def summarize(results: dict[str, Iterable[EpisodeResult]]) -> dict[str, dict[str
             "episodes": n,
             "success_rate": mean([float(e.success) for e in eps]),
             "collision_rate": mean([float(e.collided) for e in eps]),
+            "mean_collisions": mean([float(e.collision_steps) for e in eps]),
             "spl": mean([e.spl for e in eps]),
             "mean_steps": mean([float(e.steps) for e in eps]),
             "mean_looks": mean([float(e.looks) for e in eps]),
@@ -322,13 +326,13 @@ def episode_records(results: dict[str, Iterable[EpisodeResult]]) -> list[dict[st
 def markdown_table(summary: dict[str, dict[str, float | int]]) -> str:
     """A Markdown table of the summary, one row per agent."""
     header = (
-        "| agent | episodes | success | collision | SPL | mean steps | mean looks | "
-        "mean episode time (s) |\n|---|---|---|---|---|---|---|---|\n"
+        "| agent | episodes | success | collision | collisions / episode | SPL | mean steps | "
+        "mean looks | mean episode time (s) |\n|---|---|---|---|---|---|---|---|---|\n"
     )
     rows = [
         f"| {name} | {s['episodes']} | {s['success_rate']:.2f} | {s['collision_rate']:.2f} | "
-        f"{s['spl']:.3f} | {s['mean_steps']:.1f} | {s['mean_looks']:.1f} | "
-        f"{s['mean_episode_time_s']:.1f} |"
+        f"{s['mean_collisions']:.2f} | {s['spl']:.3f} | {s['mean_steps']:.1f} | "
+        f"{s['mean_looks']:.1f} | {s['mean_episode_time_s']:.1f} |"
         for name, s in summary.items()
     ]
     return header + "\n".join(rows) + "\n"

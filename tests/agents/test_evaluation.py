@@ -79,15 +79,19 @@ def test_summary_table_and_plot(tmp_path) -> None:
         "episodes": 2,
         "success_rate": 0.5,
         "collision_rate": 0.5,
+        "mean_collisions": 1.5,
         "spl": 0.4,
         "mean_steps": 105.0,
         "mean_looks": 0.5,
         "mean_episode_time_s": 2.0,
     }
     assert summary["greedy"]["collision_rate"] == 1.0
+    assert summary["greedy"]["mean_collisions"] == 1.5
     assert summary["greedy"]["spl"] == pytest.approx(0.6)
     table = markdown_table(summary).splitlines()
-    assert table[0].startswith("| agent | episodes | success | collision | SPL |")
-    assert table[2] == "| planner | 2 | 0.50 | 0.50 | 0.400 | 105.0 | 0.5 | 2.0 |"
+    assert table[0].startswith(
+        "| agent | episodes | success | collision | collisions / episode | SPL |"
+    )
+    assert table[2] == "| planner | 2 | 0.50 | 0.50 | 1.50 | 0.400 | 105.0 | 0.5 | 2.0 |"
     png = plot_summary(summary, tmp_path / "bars.png")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

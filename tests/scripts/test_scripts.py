@@ -30,8 +30,8 @@ def test_evaluate_writes_json_markdown_plot_and_details(tmp_path, capsys) -> Non
     data = json.loads(out.read_text())
     assert data == summary and list(data) == ["oracle", "random"]
     assert set(data["oracle"]) == {
-        "episodes", "success_rate", "collision_rate", "spl", "mean_steps", "mean_looks",
-        "mean_episode_time_s",
+        "episodes", "success_rate", "collision_rate", "mean_collisions", "spl", "mean_steps",
+        "mean_looks", "mean_episode_time_s",
     }  # fmt: skip
     assert data["oracle"]["episodes"] == 2 and data["oracle"]["mean_steps"] == 15
     assert "| oracle | 2 |" in (tmp_path / "eval.md").read_text()
