@@ -773,19 +773,25 @@ class ModelBasedAgent(Agent):
         self.config = NavigatorConfig(**kw)
         self.name = self.config.policy.value
         self.core: PlannerCore | None = None
-        self.decision: Decision | None = None
         self._follower: PathFollower | None = None
+        self._start_episode((0.0, 0.0, 0.0), math.inf)
+
+    def _start_episode(self, pose: tuple[float, float, float], goal_distance_m: float) -> None:
+        """The per-episode state (decision, escape, stall and progress anchors, contacts), fresh,
+        for a robot at ``pose`` (x, y, heading) ``goal_distance_m`` from its goal."""
+        x, y, heading = pose
+        self.decision: Decision | None = None
         self._since_plan = 0
         self._escape = 0
         self._escape_dir = -1.0
         self._escape_flips = 0
-        self._anchor = np.zeros(2)
+        self._anchor = np.array([x, y])
         self._anchor_step = 0
-        self._closest = math.inf
+        self._closest = goal_distance_m
         self._closest_step = 0
         self._look_steps = 0
         self._last_forward = 0.0
-        self._last_pose = (0.0, 0.0, 0.0)
+        self._last_pose = (x, y, heading)
         self._contacts: list[tuple[int, FloatArray]] = []
         self._escape_heading: float | None = None
         self._slides = 0
@@ -801,23 +807,10 @@ class ModelBasedAgent(Agent):
             lookahead_m=0.35,
             shortcut_m=self.config.shortcut_m,
         )
-        self.decision = None
-        self._since_plan = 0
-        self._escape = 0
-        self._escape_dir = -1.0
-        self._escape_flips = 0
         x, y, heading, _ = robot_pose(self.env)
-        self._anchor = np.array([x, y])
-        self._anchor_step = 0
-        self._closest = float(np.hypot(*(np.array([x, y]) - goal_xy(self.env))))
-        self._closest_step = 0
-        self._look_steps = 0
-        self._last_forward = 0.0
-        self._last_pose = (x, y, heading)
-        self._contacts = []
-        self._escape_heading = None
-        self._slides = 0
-        self._escape_last = -10
+        self._start_episode(
+            (x, y, heading), float(np.hypot(*(np.array([x, y]) - goal_xy(self.env))))
+        )
 
     def _act(self, obs: Any, info: dict[str, Any]) -> NDArray[np.floating]:
         assert self.core is not None and self._follower is not None
@@ -912,24 +905,29 @@ class ModelBasedAgent(Agent):
             # edges of what lies round the corner (the two corners of a narrow box face, which
             # make it an obstacle) are seen before the body turns into it.
             ahead = self._follower.point_ahead(here, d.waypoints, cfg.gaze_ahead_m)
-            lim = core.limits
-            need = _wrap(math.atan2(*(ahead - here)[::-1]) - heading)
-            pan_cmd = float(np.clip(need, -lim.pan_limit_rad, lim.pan_limit_rad))
-            pan_cmd /= lim.pan_limit_rad
+            _, pan_cmd = self._pan_towards(ahead, here, heading)
         if d.mode is Mode.LOOK and d.look_at is not None:
             lim = core.limits
-            need = _wrap(math.atan2(*(d.look_at - here)[::-1]) - heading)
-            pan_cmd = float(np.clip(need, -lim.pan_limit_rad, lim.pan_limit_rad))
+            need, pan_cmd = self._pan_towards(d.look_at, here, heading)
             if abs(need) > lim.pan_limit_rad + 0.5 * lim.fov_rad - 0.1:
                 # Out of reach of the head: turn the body towards it, standing.
                 forward = 0.0
                 turn = float(np.clip(need / (lim.max_turn_rate_rad_s * lim.dt_s), -1.0, 1.0))
             else:
                 forward *= 0.5
-            pan_cmd /= lim.pan_limit_rad
             self._look_steps += 1
         self._last_forward = forward
         return np.array([forward, turn, pan_cmd])
+
+    def _pan_towards(
+        self, target: FloatArray, here: FloatArray, heading: float
+    ) -> tuple[float, float]:
+        """``(bearing, pan)``: the bearing of ``target`` from the body (radians, wrapped) and the
+        pan command that points the head at it, as a fraction of the pan limit (clipped)."""
+        assert self.core is not None
+        limit = self.core.limits.pan_limit_rad
+        need = _wrap(math.atan2(*(target - here)[::-1]) - heading)
+        return need, float(np.clip(need, -limit, limit)) / limit
 
     def _note_contact(self, here: FloatArray, heading: float) -> FloatArray | None:
         """Estimate the contact normal of this step's collision from the motion it blocked.

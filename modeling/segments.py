@@ -423,10 +423,11 @@ def _fit(
     sigma_px, bias_sigma_px, min_length_px, min_angle_deg, min_gradient = opts[:5]
     search_px, trim_px, side_px, near_px = opts.search_px, opts.trim_px, opts.side_px, opts.near_px
     n_img = len(images)
-    lines = np.concatenate(detected) if n_img > 1 else detected[0].copy()
+    nothing = [ImageSegments.empty(shape) for _ in images]
+    lines = np.concatenate(detected)  # a copy: reordered in place below
     image_of = np.repeat(np.arange(n_img), [len(d) for d in detected])
     if lines.shape[0] == 0:
-        return [ImageSegments.empty(shape) for _ in images]
+        return nothing
     # order each segment top -> bottom
     swap = lines[:, 1] > lines[:, 3]
     lines[swap] = lines[swap][:, [2, 3, 0, 1]]
@@ -442,7 +443,7 @@ def _fit(
     )
     nseg = keep.size
     if nseg == 0:
-        return [ImageSegments.empty(shape) for _ in images]
+        return nothing
     x0, y0, r0, r1, image_of = x0[keep], y0[keep], r0[keep], r1[keep], image_of[keep]
     inv_slope = (x1[keep] - x0) / dv[keep]  # du/dv of the LSD line
 
@@ -459,11 +460,10 @@ def _fit(
     B = search_px + max(side_px, math.ceil(near_px) + 1)
     nb = 2 * B + 1
     c_pred = np.minimum(np.maximum(np.rint(u_line).astype(np.int64), -B), W - 1 + B)
-    stacked = images[0] if n_img == 1 else np.concatenate(images)
-    pad = cv2.copyMakeBorder(stacked, 0, 0, 2 * B, 2 * B, cv2.BORDER_REPLICATE)
+    pad = cv2.copyMakeBorder(np.concatenate(images), 0, 0, 2 * B, 2 * B, cv2.BORDER_REPLICATE)
     # pixel (row, c_pred + B + o) of the padded image, o = 0 .. nb - 1, by flat index (cheaper
     # than fancy indexing a sliding-window view); image k's rows start at k * H
-    pad_rows = rows if n_img == 1 else rows + (image_of * H)[seg]
+    pad_rows = rows + (image_of * H)[seg]
     first_px = pad_rows * pad.shape[1] + (c_pred + B)
     blk = pad.ravel().take(first_px[:, None] + np.arange(nb)).astype(np.float32)
 
@@ -500,7 +500,7 @@ def _fit(
         & (col < W - 1 + search_px)
     )
     if idx_v.size == 0:
-        return [ImageSegments.empty(shape) for _ in images]
+        return nothing
     seg_v = seg[idx_v]
     rel_u = (k[idx_v] - search_px) + off[idx_v].astype(np.float64)  # edge column - c_pred
     nv = idx_v.size
@@ -565,7 +565,7 @@ def _fit(
     sel = np.flatnonzero(ok)
     out = []
     for k in range(n_img):
-        mine = sel[image_of[sel] == k] if n_img > 1 else sel
+        mine = sel[image_of[sel] == k]
         if mine.size == 0:
             out.append(ImageSegments.empty(shape))
             continue

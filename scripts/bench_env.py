@@ -17,9 +17,8 @@ jobs, weigh in), ``env_steps_per_s_at_median`` (1000 / ``env_step_ms``), ``env_r
 median), ``env_reset_ms`` (a reset of the fixed map, its OpenGL context and distance field made
 already), and ``env_stage_<stage>_ms`` for each stage the env times
 (``physics``, ``noise`` (drawing the pixel noise, the grey images, adding the noise),
-``render``, ``segments`` (both
-images), ``matching``, ``triangulation``, ``modeling`` (``build_model``), ``packing``,
-``rewards``, ``diagnostics``).
+``render``, ``segments`` (both images), ``matching``, ``triangulation``, ``modeling``
+(``build_model``), ``packing``, ``rewards``, ``diagnostics``).
 """
 
 from __future__ import annotations

@@ -13,21 +13,35 @@ from agents import make_agent
 from agents.training import TrainConfig, train_ppo
 
 
+def _small_map_env(small_map) -> dict[str, object]:
+    """``gym.make`` keywords of the tests' small fixed map, with 50-step episodes."""
+    return {"scenario": str(small_map), "diagnostics": False, "max_episode_steps": 50}
+
+
+def _tiny_run(tmp_path, small_map, **config: object) -> TrainConfig:
+    """A one-env training configuration on the small map writing under ``tmp_path / "ppo"``."""
+    return TrainConfig(
+        n_envs=1,
+        out_dir=tmp_path / "ppo",
+        batch_size=32,
+        env_kwargs=_small_map_env(small_map),
+        progress=False,
+        **config,
+    )
+
+
 def test_ppo_smoke_run_trains_saves_and_acts(tmp_path, small_map) -> None:
-    kwargs = {"scenario": str(small_map), "diagnostics": False, "max_episode_steps": 50}
+    kwargs = _small_map_env(small_map)
     result = train_ppo(
-        TrainConfig(
+        _tiny_run(
+            tmp_path,
+            small_map,
             timesteps=256,
-            n_envs=1,
-            out_dir=tmp_path / "ppo",
             n_steps=64,
-            batch_size=32,
             n_epochs=1,
             eval_freq=128,
             eval_episodes=1,
             checkpoint_freq=128,
-            env_kwargs=kwargs,
-            progress=False,
         )
     )
     assert result.model_path.is_file() and result.timesteps == 256
@@ -63,19 +77,15 @@ def test_train_config_rejects_bad_values(tmp_path) -> None:
 
 
 def test_a_spent_time_budget_stops_training_and_still_saves(tmp_path, small_map) -> None:
-    kwargs = {"scenario": str(small_map), "diagnostics": False, "max_episode_steps": 50}
     result = train_ppo(
-        TrainConfig(
+        _tiny_run(
+            tmp_path,
+            small_map,
             timesteps=100_000,
-            n_envs=1,
-            out_dir=tmp_path / "ppo",
             n_steps=32,
-            batch_size=32,
             eval_freq=0,
             checkpoint_freq=0,
-            env_kwargs=kwargs,
             max_minutes=1e-6,
-            progress=False,
         )
     )
     assert result.timesteps < 32  # stopped within the first rollout, long before 100 000
