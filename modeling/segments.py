@@ -6,9 +6,10 @@ are always reshaped to (N, 4)). Every detected segment is then *re-localised at 
 in each image row it crosses, the sub-pixel column of its edge is found as the parabolic peak of
 the horizontal intensity gradient (central difference, of the segment's own contrast sign) near
 the LSD line, and the horizontal position ``u = u_c + slope * (v - v_c)`` is fitted to those edge
-points by least squares, as in section 3.2 of Miura (ICRA-94). All of this is vectorised over the
-edge points of every segment at once: one gather of a ``(rows, 2 B + 1)`` pixel block around the
-LSD lines serves the gradient, the peak search and the grey levels on both sides.
+points by least squares, as in section 3.2 of Miura (ICRA-94). The row-by-row part (a block of
+``2 B + 1`` pixels around the LSD line serves the gradient, the peak search and the grey levels on
+both sides) is one compiled loop (``modeling._edge_kernel``, Numba); the per-segment fit is
+vectorised over the segments.
 
 Uncertainty model (section 3.2, "quantization error"). Each edge point's column is taken as
 ``u_i ~ N(a + b v_i, s^2)`` independently, where ``s^2`` is the residual variance of the fit, but at
@@ -52,6 +53,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from modeling._edge_kernel import edge_sums
 from modeling._validation import FloatArray, positive
 
 __all__ = ["ImageSegments", "extract_segment_pair", "extract_segments"]
@@ -423,11 +425,10 @@ def _fit(
     sigma_px, bias_sigma_px, min_length_px, min_angle_deg, min_gradient = opts[:5]
     search_px, trim_px, side_px, near_px = opts.search_px, opts.trim_px, opts.side_px, opts.near_px
     n_img = len(images)
-    nothing = [ImageSegments.empty(shape) for _ in images]
     lines = np.concatenate(detected)  # a copy: reordered in place below
     image_of = np.repeat(np.arange(n_img), [len(d) for d in detected])
     if lines.shape[0] == 0:
-        return nothing
+        return [ImageSegments.empty(shape) for _ in images]
     # order each segment top -> bottom
     swap = lines[:, 1] > lines[:, 3]
     lines[swap] = lines[swap][:, [2, 3, 0, 1]]
@@ -443,99 +444,29 @@ def _fit(
     )
     nseg = keep.size
     if nseg == 0:
-        return nothing
+        return [ImageSegments.empty(shape) for _ in images]
     x0, y0, r0, r1, image_of = x0[keep], y0[keep], r0[keep], r1[keep], image_of[keep]
     inv_slope = (x1[keep] - x0) / dv[keep]  # du/dv of the LSD line
 
-    # ------------------------------------------------------------ edge points, one per row
-    counts = r1 - r0 + 1
-    total = int(counts.sum())
-    seg = np.repeat(np.arange(nseg), counts)
-    starts = np.cumsum(counts) - counts
-    rows = np.arange(total) + np.repeat(r0 - starts, counts)
-    u_line = (x0 - inv_slope * y0)[seg] + inv_slope[seg] * rows  # the LSD line in each row
-    # a (total, 2 * B + 1) block of pixels around the LSD line in each row, columns
-    # c_pred - B .. c_pred + B, from a replicate-padded copy of the stacked images (B covers the
-    # gradient window, the peak's neighbours and the side samples)
+    # edge points, one per row (the compiled loop of ``_edge_kernel``), summed per segment; the
+    # pixel block around the LSD line covers the search window, the peak's neighbours and the
+    # side samples
     B = search_px + max(side_px, math.ceil(near_px) + 1)
-    nb = 2 * B + 1
-    c_pred = np.minimum(np.maximum(np.rint(u_line).astype(np.int64), -B), W - 1 + B)
-    pad = cv2.copyMakeBorder(np.concatenate(images), 0, 0, 2 * B, 2 * B, cv2.BORDER_REPLICATE)
-    # pixel (row, c_pred + B + o) of the padded image, o = 0 .. nb - 1, by flat index (cheaper
-    # than fancy indexing a sliding-window view); image k's rows start at k * H
-    pad_rows = rows + (image_of * H)[seg]
-    first_px = pad_rows * pad.shape[1] + (c_pred + B)
-    blk = pad.ravel().take(first_px[:, None] + np.arange(nb)).astype(np.float32)
-
-    # central-difference gradient at offsets -search_px - 1 .. search_px + 1 from c_pred
-    lo = B - search_px - 1
-    nwin = 2 * search_px + 1
-    g = blk[:, lo + 1 : lo + nwin + 3] - blk[:, lo - 1 : lo + nwin + 1]
-    g *= 0.5
-
-    # polarity of each segment: sign of the gradient summed over its windows (the sum of central
-    # differences over a window telescopes to the two pairs of pixels at its ends)
-    row_sum = (
-        blk[:, B + search_px + 1]
-        + blk[:, B + search_px]
-        - blk[:, B - search_px]
-        - blk[:, B - search_px - 1]
+    S, polarity, first_row, last_row = edge_sums()(
+        np.concatenate(images) if n_img > 1 else np.ascontiguousarray(images[0]),
+        H,
+        image_of,
+        x0,
+        y0,
+        inv_slope,
+        r0,
+        r1,
+        search_px,
+        side_px,
+        float(near_px),
+        B,
+        float(min_gradient),
     )
-    polarity = np.where(np.add.reduceat(row_sum, starts) >= 0, 1, -1).astype(np.int8)
-    g *= polarity[seg].astype(np.float32)[:, None]  # the gradient of the segment's own sign
-    k = np.argmax(g[:, 1 : 1 + nwin], axis=1)  # window offsets -search_px .. +search_px
-    base = np.arange(total) * (nwin + 2) + k + 1
-    gk = g.ravel()
-    peak = gk[base]
-    gm = gk[base - 1]
-    gp = gk[base + 1]
-    # parabola vertex; at an interior maximum |off| <= 0.5 (a flat top, denom 0, gives gm == gp)
-    off = 0.5 * (gm - gp) / np.minimum(gm - 2.0 * peak + gp, -1e-12)
-    col = c_pred + k  # integer column of the peak, plus search_px
-    idx_v = np.flatnonzero(
-        (k > 0)
-        & (k < nwin - 1)
-        & (peak >= min_gradient)
-        & (col > search_px)
-        & (col < W - 1 + search_px)
-    )
-    if idx_v.size == 0:
-        return nothing
-    seg_v = seg[idx_v]
-    rel_u = (k[idx_v] - search_px) + off[idx_v].astype(np.float64)  # edge column - c_pred
-    nv = idx_v.size
-
-    # ------------------------------------------------------------ per-point quantities
-    # rows of X: 1, v, u, v^2, v u, u^2 (v relative to the segment's first trimmed row, u to the
-    # LSD line: small numbers), peak gradient, far and near grey levels left and right
-    X = np.empty((11, nv))
-    X[0] = 1.0
-    r_v = rows[idx_v]
-    np.subtract(r_v, r0[seg_v], out=X[1])
-    np.add(rel_u, (c_pred - u_line)[idx_v], out=X[2])
-    np.multiply(X[1], X[1], out=X[3])
-    np.multiply(X[1], X[2], out=X[4])
-    np.multiply(X[2], X[2], out=X[5])
-    X[6] = peak[idx_v]
-    # grey levels from the same block: far at an integer offset from the rounded edge column,
-    # near by linear interpolation at +-near_px
-    flat = blk.ravel()
-    row0 = idx_v * nb + B
-    X[7:9] = flat[row0 + np.rint(rel_u).astype(np.int64) + np.array([[-side_px], [side_px]])]
-    x = rel_u + np.array([[-near_px], [near_px]])  # (2, nv) columns of the near samples
-    fx = np.floor(x)
-    i = row0 + fx.astype(np.int64)
-    w = x - fx
-    X[9:11] = flat[i] * (1.0 - w) + flat[i + 1] * w
-
-    # ------------------------------------------------------------ least squares per segment
-    # the edge points of a segment are contiguous: np.add.reduceat over the first index of each
-    # segment that has any gives the per-segment sums
-    n_int = np.bincount(seg_v, minlength=nseg)
-    ends_i = np.cumsum(n_int)
-    has = np.flatnonzero(n_int)
-    S = np.zeros((nseg, 11))
-    S[has] = np.add.reduceat(X, (ends_i - n_int)[has], axis=1).T
     n = S[:, 0]
     safe_n = np.maximum(n, 1.0)
     mv = S[:, 1] / safe_n
@@ -553,11 +484,9 @@ def _fit(
     uc = x0 + inv_slope * (vc - y0) + mu  # fitted column there (the LSD line plus the mean offset)
     grey = S[:, 6:] / safe_n[:, None]  # contrast, grey_left, grey_right, near_left, near_right
 
-    # first and last row with edge points (edge points are in ascending rows within a segment)
-    last = np.maximum(ends_i - 1, 0)
-    first = np.minimum(ends_i - n_int, idx_v.size - 1)
-    v0 = r_v[first].astype(np.float64)
-    v1 = r_v[last].astype(np.float64)
+    # first and last row with edge points
+    v0 = first_row.astype(np.float64)
+    v1 = last_row.astype(np.float64)
     u0 = uc + slope * (v0 - vc)
     u1 = uc + slope * (v1 - vc)
     seg_len = np.hypot(u1 - u0, v1 - v0)
@@ -582,7 +511,7 @@ def _fit(
                 v_center=vc[mine],
                 slope=slope[mine],
                 point_var=point_var[mine],
-                n_points=n_int[mine].astype(np.int64),
+                n_points=n[mine].astype(np.int64),
                 s_vv=svv[mine],
                 bias_var=np.full(mine.size, float(bias_sigma_px) ** 2),
                 polarity=polarity[mine],
