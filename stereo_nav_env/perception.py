@@ -17,6 +17,7 @@ import dataclasses
 import functools
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -131,7 +132,7 @@ def draw_pixel_noise(
     which the clipping of the grey levels to [0, 255] makes immaterial), then rounded. Adding it
     to a uint8 image is the same as adding the unrounded value and rounding the sum (the image is
     whole grey levels already); its standard deviation is ``sqrt(sigma^2 + 1/12)``. Five times
-    faster than ``rng.standard_normal`` (0.3 ms a 320 x 240 pair).
+    faster than ``rng.standard_normal``.
 
     Args:
         rng: The env's generator (``np_random``); the only source of randomness.
@@ -145,9 +146,25 @@ def draw_pixel_noise(
     if sigma <= 0:
         return None
     levels = rng.integers(0, _NOISE_LEVELS, (2, height_px, width_px), dtype=np.uint16)
-    # intp indices (``take`` casts uint16 ones itself, more slowly), all in range: "wrap" is the
-    # identity and skips the bounds check
-    return np.take(_noise_table(float(sigma)), levels.astype(np.intp), mode="wrap")
+    return _lookup()(_noise_table(float(sigma)), levels)
+
+
+def _lookup_loop(table: NDArray[np.int16], levels: NDArray[np.uint16]) -> NDArray[np.int16]:
+    """``table[levels]``, one pass (NumPy's fancy indexing first widens the indices to intp)."""
+    out = np.empty(levels.shape, np.int16)
+    flat_in = levels.ravel()
+    flat_out = out.ravel()
+    for i in range(flat_in.shape[0]):
+        flat_out[i] = table[flat_in[i]]
+    return out
+
+
+@functools.cache
+def _lookup() -> Callable[[NDArray[np.int16], NDArray[np.uint16]], NDArray[np.int16]]:
+    """:func:`_lookup_loop` compiled with Numba (cached on disk) on first use."""
+    import numba
+
+    return numba.njit(cache=True, nogil=True)(_lookup_loop)
 
 
 def add_pixel_noise(image: UInt8Image, noise: NDArray[np.int16] | None) -> UInt8Image:
