@@ -2,7 +2,8 @@
 
 Segment-based stereo with uncertainty, floor projection, obstacles and free spaces, critical
 regions, occlusion and the enumeration of possible situations. Depends on numpy, scipy, shapely,
-networkx and (for segment extraction only) OpenCV; never on gymnasium, pymunk, pyrender or torch.
+networkx and (for segment extraction only) OpenCV and Numba; never on gymnasium, pymunk, pyrender
+or torch.
 
 Public names are imported lazily so that ``import modeling`` stays cheap.
 """
@@ -24,6 +25,7 @@ _EXPORTS: dict[str, str] = {
     "StereoMatches": "modeling.matching",
     "match_segments": "modeling.matching",
     "triangulate_to_floor": "modeling.triangulation",
+    "close_faces": "modeling.faces",
     "gap_passable_probability": "modeling.gaps",
     "Relation": "modeling.gaps",
     "classify_gap": "modeling.gaps",
@@ -50,6 +52,7 @@ __all__ = [
     "StereoRig",
     "build_model",
     "classify_gap",
+    "close_faces",
     "extract_segment_pair",
     "extract_segments",
     "gap_passable_probability",
@@ -59,6 +62,7 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
+    from modeling.faces import close_faces
     from modeling.gaps import Relation, classify_gap, gap_passable_probability
     from modeling.matching import StereoMatches, match_segments
     from modeling.model import (

@@ -29,9 +29,11 @@ project's rendered scenes (``scripts/bench_stereo.py``: vertical obstacle edges,
 deviation of the column error 0.10 px, of the disparity error 0.12 px). Use ``1 / sqrt(12)``
 (0.29 px) for an imager *without* anti-aliasing, whose edges snap to whole pixels.
 
-Near-horizontal segments are **dropped**: the epipolar lines of a rectified pair are image rows, so
-a segment's disparity is undefined (or badly conditioned) when it runs along a row. Segments whose
-angle to the image rows is below ``min_angle_deg`` are discarded before fitting.
+Near-horizontal segments are **not fitted**: the epipolar lines of a rectified pair are image rows,
+so a segment's disparity is undefined (or badly conditioned) when it runs along a row. Segments
+whose angle to the image rows is below ``min_angle_deg`` are kept aside, as detected, in
+``ImageSegments.horizontal``: unmatched, they still say where the top or bottom edge of a surface
+joins two vertical edges (``modeling.faces``).
 
 For the matcher's photometric checks, each segment also carries the mean grey level on both sides
 of its edge points at two distances: ``side_px`` (3 px, "far") and ``near_px`` (1.5 px, "near",
@@ -126,6 +128,11 @@ class ImageSegments:
         grey_right_near: (n,) mean intensity ``near_px`` right of the edge points; ``grey_right``
             if not given.
         image_shape: ``(height_px, width_px)`` of the image.
+        horizontal: (k, 2, 2) ``[[u0, v0], [u1, v1]]`` px of the image's near-horizontal lines
+            (LSD's, at least ``min_length_px`` long, at less than ``min_angle_deg`` to the rows),
+            not fitted and not matched (their disparity is undefined), left end first; they
+            tell where the top or bottom edge of a surface joins two vertical edges
+            (:func:`modeling.faces.close_faces`). Empty if not given.
     """
 
     endpoints: FloatArray
@@ -143,6 +150,7 @@ class ImageSegments:
     grey_left_near: FloatArray | None = None
     grey_right_near: FloatArray | None = None
     image_shape: tuple[int, int] = field(default=(0, 0))
+    horizontal: FloatArray = field(default_factory=lambda: np.zeros((0, 2, 2)))
 
     def __post_init__(self) -> None:
         ends = np.asarray(self.endpoints, dtype=np.float64)
@@ -161,6 +169,10 @@ class ImageSegments:
             object.__setattr__(self, name, _readonly(arr))
         if ends.size and np.any(ends[:, 0, 1] > ends[:, 1, 1]):
             raise ValueError("endpoints must be ordered top to bottom (v0 <= v1)")
+        hor = np.asarray(self.horizontal, dtype=np.float64)
+        if hor.ndim != 3 or hor.shape[1:] != (2, 2):
+            raise ValueError(f"horizontal must have shape (k, 2, 2), got {hor.shape}")
+        object.__setattr__(self, "horizontal", _readonly(hor))
         shape = tuple(int(s) for s in self.image_shape)
         if len(shape) != 2:
             raise ValueError(f"image_shape must be (height, width), got {self.image_shape!r}")
@@ -172,6 +184,7 @@ class ImageSegments:
         dtypes: skips the conversions and checks of ``__post_init__`` (they would cost a tenth of
         the extraction)."""
         obj = object.__new__(cls)
+        arrays.setdefault("horizontal", np.zeros((0, 2, 2)))
         for name, arr in arrays.items():
             object.__setattr__(obj, name, _readonly(arr))
         object.__setattr__(obj, "image_shape", image_shape)
@@ -181,10 +194,13 @@ class ImageSegments:
         return int(self.endpoints.shape[0])
 
     @classmethod
-    def empty(cls, image_shape: tuple[int, int] = (0, 0)) -> ImageSegments:
-        """No segments."""
+    def empty(
+        cls, image_shape: tuple[int, int] = (0, 0), *, horizontal: FloatArray | None = None
+    ) -> ImageSegments:
+        """No segments (and the given near-horizontal lines, if any)."""
         arrays = {name: np.zeros(0, dtype=dtype) for name, dtype in _FIELDS}
-        return cls(endpoints=np.zeros((0, 2, 2)), image_shape=image_shape, **arrays)
+        hor = np.zeros((0, 2, 2)) if horizontal is None else horizontal
+        return cls(endpoints=np.zeros((0, 2, 2)), image_shape=image_shape, horizontal=hor, **arrays)
 
     @property
     def length(self) -> FloatArray:
@@ -436,6 +452,13 @@ def _fit(
     dv = y1 - y0
     length = np.hypot(x1 - x0, dv)
     sin_min = math.sin(math.radians(min_angle_deg))
+    # the near-horizontal lines, left end first, as detected
+    is_hor = (length >= min_length_px) & (dv < sin_min * length)
+    hor = lines[is_hor].reshape(-1, 2, 2)
+    flip = hor[:, 0, 0] > hor[:, 1, 0]
+    hor[flip] = hor[flip, ::-1]
+    hor_of = image_of[is_hor]
+    horizontal = [hor[hor_of == k] for k in range(n_img)]
     # rows each segment crosses (trimmed at both ends)
     r0 = np.maximum(np.ceil(y0).astype(np.int64) + trim_px, 1)
     r1 = np.minimum(np.floor(y1).astype(np.int64) - trim_px, H - 2)
@@ -444,7 +467,7 @@ def _fit(
     )
     nseg = keep.size
     if nseg == 0:
-        return [ImageSegments.empty(shape) for _ in images]
+        return [ImageSegments.empty(shape, horizontal=h) for h in horizontal]
     x0, y0, r0, r1, image_of = x0[keep], y0[keep], r0[keep], r1[keep], image_of[keep]
     inv_slope = (x1[keep] - x0) / dv[keep]  # du/dv of the LSD line
 
@@ -496,7 +519,7 @@ def _fit(
     for k in range(n_img):
         mine = sel[image_of[sel] == k]
         if mine.size == 0:
-            out.append(ImageSegments.empty(shape))
+            out.append(ImageSegments.empty(shape, horizontal=horizontal[k]))
             continue
         endpoints = np.empty((mine.size, 2, 2))
         endpoints[:, 0, 0] = u0[mine]
@@ -520,6 +543,7 @@ def _fit(
                 grey_right=grey[mine, 2],
                 grey_left_near=grey[mine, 3],
                 grey_right_near=grey[mine, 4],
+                horizontal=horizontal[k],
             )
         )
     return out

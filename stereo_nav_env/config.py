@@ -181,6 +181,8 @@ class EnvConfig:
         eps: Classification tolerance of the model (passable if ``p > 1 - eps``, impassable if
             ``p < eps``), in (0, 0.5).
         model_max_situations: Most situations the model enumerates (``info["model"]``).
+        close_faces: Whether a face's top or bottom edge joining two vertical edges closes the
+            "gap" between them (:mod:`modeling.faces`, an addition to the paper's pipeline).
         diagnostics: Whether ``info["diagnostics"]`` compares the model with ground truth.
         observation: What the observation holds (:class:`ObservationConfig`).
         rewards: Reward weights (:class:`RewardConfig`).
@@ -204,6 +206,7 @@ class EnvConfig:
     terminate_on_collision: bool = True
     eps: float = 0.05
     model_max_situations: int = 64
+    close_faces: bool = True
     diagnostics: bool = True
     observation: ObservationConfig = field(default_factory=ObservationConfig)
     rewards: RewardConfig = field(default_factory=RewardConfig)
@@ -225,6 +228,7 @@ class EnvConfig:
         _integer(self, "height_px", 16)
         _integer(self, "model_max_situations", 1)
         _boolean(self, "terminate_on_collision")
+        _boolean(self, "close_faces")
         _boolean(self, "diagnostics")
         if not isinstance(self.observation, ObservationConfig):
             raise ValueError(

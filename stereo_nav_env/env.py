@@ -69,7 +69,11 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     modeling pipeline of Miura (ICRA-94) turns it into an environment model: floor segments with
     uncertain endpoints, obstacles, critical regions (gaps whose passability for the robot's width
     is undecided, each with ``p_passable``), the occluded area, and the possible situations of the
-    world (one per combination of ambiguous matches) with their probabilities. The observation
+    world (one per combination of ambiguous matches) with their probabilities. One addition to
+    the paper's pipeline (``close_faces``, on by default): where a near-horizontal image line
+    joins the lower ends of two vertical edges (a plain face's bottom edge), the floor segment
+    between their floor points is added (:mod:`modeling.faces`), so a plain face wider than the
+    robot is not taken for a gap between its two edges. The observation
     packs that model; gaps close to the robot's width make passability genuinely uncertain, and
     looking again from elsewhere resolves it. The model is of the latest view only (no memory
     across steps: stack frames or use a recurrent policy for that).
@@ -287,6 +291,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             robot_height_m=cfg.robot_height_m,
             eps=cfg.eps,
             max_situations=cfg.model_max_situations,
+            close_faces=cfg.close_faces,
             stopwatch=watch,
         )
         world = self._require_world()

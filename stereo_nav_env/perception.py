@@ -27,6 +27,7 @@ import shapely
 from numpy.typing import NDArray
 from scipy.special import ndtri
 
+from modeling.faces import close_faces as close_faces_of
 from modeling.matching import match_segments
 from modeling.model import EnvironmentModel, build_model
 from modeling.pipeline import to_gray
@@ -192,6 +193,7 @@ def perceive(
     robot_height_m: float,
     eps: float,
     max_situations: int,
+    close_faces: bool = True,
     stopwatch: Stopwatch | None = None,
 ) -> ComparableModel:
     """The environment model of one rectified pair (the whole modeling pipeline).
@@ -205,6 +207,7 @@ def perceive(
         robot_height_m: Floor segments are kept between 0.05 m and this height, metres.
         eps: Classification tolerance in (0, 0.5).
         max_situations: Most situations enumerated.
+        close_faces: Close the "gaps" that are plain faces (:func:`modeling.faces.close_faces`).
         stopwatch: If given, its laps ``segments``, ``matching``, ``triangulation`` and
             ``modeling`` are added to (its clock must have been lapped just before the call).
 
@@ -217,6 +220,8 @@ def perceive(
     matches = match_segments(segs_l, segs_r, rig)
     watch.lap("matching")
     floor = triangulate_to_floor(matches, rig, head_pose, max_height_m=robot_height_m)
+    if close_faces:
+        floor = close_faces_of(segs_l, floor, max_height_m=robot_height_m)
     watch.lap("triangulation")
     model = build_model(floor, robot_width_m, eps=eps, max_situations=max_situations)
     out = ComparableModel.of(model)

@@ -84,12 +84,23 @@ def test_bias_variance_is_added() -> None:
     np.testing.assert_allclose(b.u_var_at(idx, v) - a.u_var_at(idx, v), 0.09)
 
 
-def test_near_horizontal_segments_are_dropped() -> None:
+def test_near_horizontal_segments_are_not_fitted_but_kept_aside() -> None:
     img = np.full((240, 320), 80, dtype=np.uint8)
-    img[120:, :] = 200  # a horizontal edge only
-    cv2.line(img, (40, 20), (300, 60), 255, 3)  # ~9 degrees to the rows
-    assert len(extract_segments(img)) == 0
-    assert len(extract_segments(img, min_angle_deg=0.0)) > 0
+    img[120:, 30:290] = 200  # a horizontal edge (row 119.5, columns 30 .. 289) ...
+    cv2.line(img, (40, 20), (300, 60), 255, 3)  # ... and a line ~9 degrees to the rows
+    segs = extract_segments(img)
+    assert len(segs) == 0 or np.all(np.abs(segs.slope) < 0.2)  # only the box's short sides
+    assert len(extract_segments(img, min_angle_deg=0.0)) > len(segs)
+    hor = segs.horizontal
+    assert hor.shape[1:] == (2, 2) and not hor.flags.writeable
+    assert np.all(hor[:, 0, 0] <= hor[:, 1, 0])  # left end first
+    # the step edge: a line along row 119.5 spanning most of the box's width
+    on_edge = hor[np.all(np.abs(hor[:, :, 1] - 119.5) <= 1.5, axis=1)]
+    assert on_edge.shape[0] >= 1
+    assert (on_edge[:, 1, 0] - on_edge[:, 0, 0]).sum() >= 0.8 * 260
+    # and the slanted line (two edges, 9 degrees)
+    slope = (hor[:, 1, 1] - hor[:, 0, 1]) / (hor[:, 1, 0] - hor[:, 0, 0])
+    assert np.any(np.abs(slope - 40 / 260) < 0.03)
 
 
 def test_blank_and_noise_images_give_empty_or_valid_result() -> None:

@@ -1,0 +1,130 @@
+"""Plain faces on rendered scenes (``modeling.faces``): a face between two vertical edges is closed,
+a real gap between two obstacles is not. Ground truth: the obstacles' footprints."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+import shapely
+
+os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+
+from modeling.faces import close_faces, face_pairs
+from modeling.matching import match_segments
+from modeling.model import build_model
+from modeling.observation import FloorObservation
+from modeling.pipeline import to_gray
+from modeling.rig import HeadPose, StereoRig
+from modeling.segments import ImageSegments, extract_segment_pair
+from modeling.triangulation import triangulate_to_floor
+
+render = pytest.importorskip("stereo_nav_env.render")
+scenes = pytest.importorskip("stereo_nav_env.scenes")
+
+RIG = StereoRig()
+HEAD = HeadPose(x_m=0.0, y_m=0.0, heading_rad=0.0, height_m=0.8)
+ROBOT_WIDTH_M = 0.5
+
+
+def _observe(obstacles: tuple) -> tuple[ImageSegments, FloorObservation, shapely.Geometry]:
+    """Render the scene from ``HEAD`` with seeded pixel noise; the left segments, the floor
+    observation and the union of the true footprints."""
+    scene = scenes.Scene(
+        name="t", bounds=(-1, -5, 12, 5), obstacles=obstacles, start=(0, 0, 0), goal=(11, 0)
+    )
+    renderer = render.StereoRenderer(RIG, scene)
+    try:
+        left, right = renderer.render_stereo(HEAD)
+    except RuntimeError as exc:  # pragma: no cover - no OpenGL on this machine
+        pytest.skip(f"rendering unavailable: {exc}")
+    finally:
+        renderer.close()
+    rng = np.random.default_rng(0)
+    grey = []
+    for image in (left, right):
+        g = to_gray(image).astype(np.float64) + rng.normal(0.0, 2.0, image.shape[:2])
+        grey.append(np.clip(np.rint(g), 0, 255).astype(np.uint8))
+    segs_l, segs_r = extract_segment_pair(*grey)
+    floor = triangulate_to_floor(match_segments(segs_l, segs_r, RIG), RIG, HEAD)
+    truth = shapely.union_all([shapely.Polygon(o.footprint) for o in obstacles])
+    return segs_l, floor, truth
+
+
+def _box(y0: float, y1: float, x_front: float = 3.0, color: tuple = (0.55, 0.35, 0.2)) -> object:
+    """A plain box 1.5 m tall (above the robot: only its bottom edge can close it) whose front
+    face, at ``x_front``, spans ``y0 .. y1``."""
+    fp = [[x_front, y0], [x_front + 0.6, y0], [x_front + 0.6, y1], [x_front, y1]]
+    return scenes.make_obstacle("box", fp, height_m=1.5, color=color)
+
+
+def _added(before: FloorObservation, after: FloorObservation) -> list:
+    return list(after.segments[len(before.segments) :])
+
+
+def test_a_face_wider_than_the_robot_is_closed_along_its_true_outline() -> None:
+    segs_l, floor, _ = _observe((_box(-0.6, 0.6),))
+    assert len(segs_l.horizontal) >= 1  # the face's bottom edge
+    closed = close_faces(segs_l, floor)
+    added = _added(floor, closed)
+    assert len(added) == 1
+    ends = added[0].endpoints
+    # the two front corners, (3.0, -0.6) and (3.0, 0.6), in some order
+    true_corners = np.array([[3.0, -0.6], [3.0, 0.6]])
+    err = np.abs(np.sort(ends, axis=0) - np.sort(true_corners, axis=0))
+    assert err.max() <= 0.1
+    assert added[0].source == -1
+    # without it the two edges are isolated points with a passable gap between them, dropped as
+    # isolated short segments: no obstacle at all; with it, one obstacle across the face
+    assert len(build_model(floor, ROBOT_WIDTH_M).most_probable.obstacles) == 0
+    assert len(build_model(closed, ROBOT_WIDTH_M).most_probable.obstacles) == 1
+
+
+def test_a_real_gap_between_two_boxes_is_not_closed() -> None:
+    far_wall = scenes.make_obstacle(
+        "wall", scenes.oriented_rect([7.0, 0.0], 0.1, 8.0, 0.0), color=(0.8, 0.8, 0.75)
+    )
+    boxes = (_box(-1.3, -0.5, color=(0.2, 0.3, 0.6)), _box(0.5, 1.3))
+    segs_l, floor, truth = _observe((*boxes, far_wall))
+    closed = close_faces(segs_l, floor)
+    added = _added(floor, closed)
+    # edges on both sides of the gap were seen (a join across it was possible) ...
+    sides = [s.endpoints[1] for s in floor.segments if 2.5 < s.endpoints[1, 0] < 4.0]
+    assert any(p[1] > 0.4 for p in sides) and any(p[1] < -0.4 for p in sides)
+    assert added, "the left box's face is closed"
+    for seg in added:  # every added segment lies on a true obstacle, none across the gap
+        line = shapely.LineString(seg.endpoints)
+        samples = [line.interpolate(t, normalized=True) for t in np.linspace(0, 1, 11)]
+        assert max(p.distance(truth) for p in samples) <= 0.12
+    # ... and none was made
+    gap = shapely.box(2.9, -0.45, 3.9, 0.45)  # the free space between the boxes
+    assert not any(shapely.LineString(s.endpoints).intersects(gap) for s in added)
+
+
+def test_nothing_to_close_returns_the_observation_itself() -> None:
+    floor = FloorObservation()
+    assert close_faces(ImageSegments.empty((240, 320)), floor) is floor
+    assert face_pairs(ImageSegments.empty((240, 320)), floor) == []
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"tol_px": -1.0}, "tol_px"),
+        ({"min_cover": 0.0}, "min_cover"),
+        ({"max_length_m": float("nan")}, "max_length_m"),
+    ],
+)
+def test_bad_options_name_themselves(kwargs: dict, name: str) -> None:
+    with pytest.raises(ValueError, match=name):
+        face_pairs(ImageSegments.empty((240, 320)), FloorObservation(), **kwargs)
+
+
+def test_bad_inputs_name_themselves() -> None:
+    with pytest.raises(ValueError, match="left"):
+        face_pairs(np.zeros((3, 3)), FloorObservation())  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="floor"):
+        face_pairs(ImageSegments.empty((240, 320)), None)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="horizontal"):
+        ImageSegments.empty((240, 320), horizontal=np.zeros((2, 4)))
