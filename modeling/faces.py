@@ -12,11 +12,14 @@ it meets the floor on other image rows.
 :func:`close_faces` adds, for each such pair of unambiguous floor segments, the floor segment
 between their floor points (the face's outline on the floor), so that the model of section 2 sees
 an obstacle where there is one. Both edges must be near-vertical in the image, within
-``max_range_m`` of the camera and at most ``max_length_m`` apart on the floor; for the bottom edge
-both must reach down to the floor (their lowest kept point at most ``floor_reach_m`` high), for
-the top edge both tops must lie below the kept band's top (not cut off by it) at equal heights
-(within ``top_match_m``). The near-horizontal lines must cover at least ``min_cover`` of the image
-line between the two ends, each line within ``tol_px`` of it.
+``max_range_m`` of the camera and at most ``max_length_m`` apart on the floor, and both must reach
+down to the floor (their lowest kept point at most ``floor_reach_m`` high). The near-horizontal
+lines must cover at least ``min_cover`` of the image line between the two lower ends, each line
+within ``tol_px`` of it. Top edges (``tops=True``: both tops below the kept band's top, at equal
+heights within ``top_match_m``) are off by default: in furnished rooms the long top edges of
+tables and shelves pass by the tops of other objects' edges, and about one top join in four was
+false on the evaluation scenes, against about one bottom join in twenty (``scripts/evaluate.py``
+suite, checked against the true footprints).
 
 This is an addition to the paper's pipeline (which uses vertical and oblique segments only); it
 can be turned off where the paper's pipeline alone is wanted (``close_faces=False`` in the env).
@@ -67,9 +70,7 @@ def face_pairs(
         top_match_m: A top edge joins edges whose top heights differ by at most this, metres.
         max_height_m: Top of the height band the floor segments were kept in (a top at it was cut
             off, not seen), metres.
-        tops: Also join tops (off by default: in furnished rooms the long top edges of tables
-            and shelves pass by the tops of other objects' edges, and 1 in 4 top joins was false
-            on the evaluation scenes, against few bottom ones).
+        tops: Also join the upper ends (see the module docstring: off by default).
 
     Returns:
         ``(i, j, end)`` triples: indices into ``floor.segments`` (image order, ``i`` left of
