@@ -34,7 +34,10 @@ from modeling._validation import positive
 from modeling.observation import FloorObservation, FloorSegment
 from modeling.segments import ImageSegments
 
-__all__ = ["close_faces", "face_pairs"]
+__all__ = ["FACE_SOURCE", "close_faces", "face_pairs"]
+
+#: ``FloorSegment.source`` of a face's segment (it joins two measured segments, is not one).
+FACE_SOURCE = -2
 
 
 def face_pairs(
@@ -177,7 +180,7 @@ def close_faces(
 
     The new segment joins the two edges' floor points at the joined end (the lower kept points
     for a bottom edge, the upper ones for a top edge), with their covariances; its ``source`` is
-    ``-1`` (not one image segment).
+    :data:`FACE_SOURCE` (not one image segment).
 
     Args:
         left: As :func:`face_pairs`.
@@ -203,7 +206,7 @@ def close_faces(
                 endpoints=np.array([a.endpoints[end], b.endpoints[end]]),
                 cov=np.array([a.cov[end], b.cov[end]]),
                 height_m=np.array([a.height_m[end], b.height_m[end]]),
-                source=-1,
+                source=FACE_SOURCE,
             )
         )
     return FloorObservation(

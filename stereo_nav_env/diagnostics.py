@@ -7,8 +7,9 @@ still merge infos (they mask missing keys); read figures with ``.get(name, math.
 are always present.
 
 * ``nees_mean``, ``coverage_95``, ``endpoints``: over the endpoints of the unambiguous floor
-  segments, the error of the mean across the nearest true outline, normalised by the standard
-  deviation the endpoint's covariance gives in that direction: ``z = |e| / sqrt(n^T C n)`` with
+  segments (not the faces' segments that join two of them), the error of the mean across the
+  nearest true outline, normalised by the standard deviation the endpoint's covariance gives in
+  that direction: ``z = |e| / sqrt(n^T C n)`` with
   ``e`` the vector from the nearest point of a true outline to the mean and ``n = e / |e|``.
   ``nees_mean`` is the mean of ``z^2`` (one degree of freedom: ideal 1; above 1 the covariances
   are too small), ``coverage_95`` the fraction with ``|z| <= 1.96`` (ideal 0.95), ``endpoints``
@@ -44,6 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from modeling.faces import FACE_SOURCE
 from modeling.model import EnvironmentModel
 from stereo_nav_env.scenes import Scene
 
@@ -137,8 +139,11 @@ def normalised_outline_errors(points: FloatArray, cov: FloatArray, edges: FloatA
 
 
 def _outline_figures(model: EnvironmentModel, truth: GroundTruth) -> dict[str, float]:
-    """Endpoint figures of the unambiguous segments and the true-candidate figures, at once."""
-    segs = model.observation.segments
+    """Endpoint figures of the unambiguous segments and the true-candidate figures, at once.
+
+    A face's floor segment (``source == FACE_SOURCE``, :mod:`modeling.faces`) does not count: it
+    joins endpoints that are measured already, and would count them twice."""
+    segs = [s for s in model.observation.segments if s.source != FACE_SOURCE]
     amb = model.observation.ambiguous
     cands = [c for a in amb for c in a.candidates]
     items = [*segs, *cands]

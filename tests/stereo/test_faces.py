@@ -11,7 +11,7 @@ import shapely
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
-from modeling.faces import close_faces, face_pairs
+from modeling.faces import FACE_SOURCE, close_faces, face_pairs
 from modeling.matching import match_segments
 from modeling.model import build_model
 from modeling.observation import FloorObservation
@@ -74,7 +74,7 @@ def test_a_face_wider_than_the_robot_is_closed_along_its_true_outline() -> None:
     true_corners = np.array([[3.0, -0.6], [3.0, 0.6]])
     err = np.abs(np.sort(ends, axis=0) - np.sort(true_corners, axis=0))
     assert err.max() <= 0.1
-    assert added[0].source == -1
+    assert added[0].source == FACE_SOURCE
     # without it the two edges are isolated points with a passable gap between them, dropped as
     # isolated short segments: no obstacle at all; with it, one obstacle across the face
     assert len(build_model(floor, ROBOT_WIDTH_M).most_probable.obstacles) == 0
