@@ -27,14 +27,16 @@ can be turned off where the paper's pipeline alone is wanted (``close_faces=Fals
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
-import shapely
 
 from modeling._validation import positive
 from modeling.observation import FloorObservation, FloorSegment
 from modeling.segments import ImageSegments
 
 __all__ = ["FACE_SOURCE", "close_faces", "face_pairs"]
+
 
 #: ``FloorSegment.source`` of a face's segment (it joins two measured segments, is not one).
 FACE_SOURCE = -2
@@ -103,67 +105,75 @@ def face_pairs(
     segs = floor.segments
     if hor.shape[0] == 0 or len(segs) < 2:
         return []
-    src = np.array([s.source for s in segs], dtype=np.int64)
-    ok = (src >= 0) & (src < len(left))
-    cand = np.flatnonzero(ok)
-    if cand.shape[0] < 2:
+    # per segment: image index, lowest and highest kept heights, floor points (one pass)
+    n_left = len(left)
+    src_l, h_lo, h_hi, pts = [], [], [], []
+    for k, seg in enumerate(segs):
+        if 0 <= seg.source < n_left:
+            h0, h1 = seg.height_m.tolist()
+            src_l.append((k, seg.source))
+            h_lo.append(min(h0, h1))
+            h_hi.append(max(h0, h1))
+            pts.append(seg.endpoints)
+    if len(src_l) < 2:
         return []
-    src = src[cand]
-    ends_img = left.endpoints[src]  # (c, 2, 2): top, bottom end in the image
+    cand, src = np.array(src_l, dtype=np.int64).T
+    heights_lo, top_h = np.array(h_lo), np.array(h_hi)
+    floor_pts = np.array(pts)  # (c, 2, 2)
     slope = left.slope[src]
-    floor_pts = np.array([segs[k].endpoints for k in cand])  # (c, 2, 2)
-    heights = np.array([segs[k].height_m for k in cand])  # (c, 2)
-    vp = floor.viewpoint[:2]
-    rng = np.hypot(*(floor_pts.mean(axis=1) - vp).T)
+    mid = 0.5 * (floor_pts[:, 0] + floor_pts[:, 1]) - floor.viewpoint[:2]
+    rng = np.hypot(mid[:, 0], mid[:, 1])
     vertical = (np.abs(slope) <= max_slope) & (rng <= max_range_m)
-    reach_floor = heights.min(axis=1) <= floor_reach_m
-    top_h = heights.max(axis=1)
-    top_seen = top_h < max_height_m - 0.02
-    ia, ib = np.triu_indices(cand.shape[0], 1)
-    keep = vertical[ia] & vertical[ib]
-    ia, ib = ia[keep], ib[keep]
+    reach_floor = vertical & (heights_lo <= floor_reach_m)
+    top_seen = vertical & (top_h < max_height_m - 0.02)
+    ends_img = left.endpoints[src]  # (c, 2, 2): top, bottom end in the image
     out: list[tuple[int, int, int]] = []
-    ends = (1, 0) if tops else (1,)
-    for end in ends:
+    for end in (1, 0) if tops else (1,):
+        # the pairs of eligible segments (a handful: a Python loop is cheapest)
         if end == 1:
-            ok_pair = reach_floor[ia] & reach_floor[ib]
+            pairs = list(itertools.combinations(np.flatnonzero(reach_floor).tolist(), 2))
         else:
-            ok_pair = top_seen[ia] & top_seen[ib] & (np.abs(top_h[ia] - top_h[ib]) <= top_match_m)
-        a, b = ia[ok_pair], ib[ok_pair]
-        if a.shape[0] == 0:
+            pairs = [
+                (i, j)
+                for i, j in itertools.combinations(np.flatnonzero(top_seen).tolist(), 2)
+                if abs(top_h[i] - top_h[j]) <= top_match_m
+            ]
+        if not pairs:
             continue
-        pa_floor = floor_pts[a, end]
-        pb_floor = floor_pts[b, end]
-        short = np.hypot(*(pb_floor - pa_floor).T) <= max_length_m
-        a, b = a[short], b[short]
-        if a.shape[0] == 0:
-            continue
+        a, b = np.array(pairs, dtype=np.int64).T
+        d_floor = floor_pts[b, end] - floor_pts[a, end]
+        short = np.hypot(d_floor[:, 0], d_floor[:, 1]) <= max_length_m
         # the image ends, moved along their edges by ``extend_px`` past the last edge point
         # (the fit stops short of a corner: the rows next to it are trimmed or blurred)
         step = (1.0 if end == 1 else -1.0) * extend_px
-        P = ends_img[a, end] + step * np.stack([slope[a], np.ones(a.shape[0])], axis=1)
-        Q = ends_img[b, end] + step * np.stack([slope[b], np.ones(b.shape[0])], axis=1)
-        D = Q - P
-        L2 = np.einsum("qi,qi->q", D, D)
-        wide = L2 >= 1.0
-        a, b, P, D, L2 = a[wide], b[wide], P[wide], D[wide], L2[wide]
-        if a.shape[0] == 0:
+        P = ends_img[a, end]
+        P[:, 0] += step * slope[a]
+        P[:, 1] += step
+        D = ends_img[b, end]
+        D[:, 0] += step * slope[b]
+        D[:, 1] += step
+        D -= P
+        L2 = D[:, 0] * D[:, 0] + D[:, 1] * D[:, 1]
+        keep = np.flatnonzero(short & (L2 >= 1.0))
+        if keep.shape[0] == 0:
             continue
-        L = np.sqrt(L2)
+        a, b, P, D, L2 = a[keep], b[keep], P[keep], D[keep], L2[keep]
         # each line's two ends against each pair's image line: offset across it and parameter
-        rel = hor[None, :, :, :] - P[:, None, None, :]  # (q, k, 2 ends, 2)
-        across = np.abs(D[:, None, None, 0] * rel[..., 1] - D[:, None, None, 1] * rel[..., 0])
-        along = (D[:, None, None, 0] * rel[..., 0] + D[:, None, None, 1] * rel[..., 1]) / L2[
-            :, None, None
-        ]
-        near = (across / L[:, None, None] <= tol_px).all(axis=2)  # (q, k)
-        t0 = np.clip(along.min(axis=2), 0.0, 1.0)
-        t1 = np.clip(along.max(axis=2), 0.0, 1.0)
+        rx = hor[None, :, :, 0] - P[:, None, None, 0]  # (q, k, 2 ends)
+        ry = hor[None, :, :, 1] - P[:, None, None, 1]
+        dx, dy = D[:, None, None, 0], D[:, None, None, 1]
+        inv = (1.0 / L2)[:, None, None]
+        near = (np.abs(dx * ry - dy * rx) <= tol_px * np.sqrt(L2)[:, None, None]).all(axis=2)
+        has = np.flatnonzero(near.any(axis=1))  # pairs with some line along them
+        if has.shape[0] == 0:
+            continue
+        a, b, near = a[has], b[has], near[has]
+        along = (dx[has] * rx[has] + dy[has] * ry[has]) * inv[has]
+        t0 = along.min(axis=2).clip(0.0, 1.0)
+        t1 = along.max(axis=2).clip(0.0, 1.0)
         for q in range(a.shape[0]):
-            lines = np.flatnonzero(near[q] & (t1[q] > t0[q]))
-            if lines.size == 0:
-                continue
-            if _union_length(t0[q, lines], t1[q, lines]) >= min_cover:
+            lines = np.flatnonzero(near[q])
+            if _covered(t0[q, lines].tolist(), t1[q, lines].tolist()) >= min_cover:
                 i, j = int(cand[a[q]]), int(cand[b[q]])
                 if ends_img[a[q], end, 0] > ends_img[b[q], end, 0]:
                     i, j = j, i
@@ -218,9 +228,13 @@ def close_faces(
     )
 
 
-def _union_length(t0: np.ndarray, t1: np.ndarray) -> float:
-    """Total length of the union of the intervals ``[t0, t1]`` (on a line, by shapely)."""
-    pieces = shapely.linestrings(
-        np.stack([t0, np.zeros_like(t0), t1, np.zeros_like(t1)], 1).reshape(-1, 2, 2)
-    )
-    return float(shapely.union_all(pieces).length)
+def _covered(starts: list[float], stops: list[float]) -> float:
+    """Length of the union of the intervals ``[starts[k], stops[k]]`` (a few: plain Python)."""
+    total, lo, hi = 0.0, 0.0, -1.0
+    for s0, s1 in sorted(zip(starts, stops, strict=True)):
+        if s0 > hi:  # a new run
+            total += max(hi - lo, 0.0)
+            lo, hi = s0, s1
+        else:
+            hi = max(hi, s1)
+    return total + max(hi - lo, 0.0)
