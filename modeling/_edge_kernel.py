@@ -151,3 +151,74 @@ def edge_sums() -> Callable[..., Any]:
     import numba
 
     return numba.njit(cache=True, nogil=True)(_edge_sums)
+
+
+# Rows of the per-segment fit: the two ends (u0, v0, u1, v1), the fitted line (u_center, v_center,
+# slope), the per-point variance, n, S_vv, then the mean peak gradient and grey levels (far left,
+# far right, near left, near right).
+N_FIT = 15
+
+
+def _segment_fits(
+    sums: np.ndarray,
+    first_row: np.ndarray,
+    last_row: np.ndarray,
+    x0: np.ndarray,
+    y0: np.ndarray,
+    inv_slope: np.ndarray,
+    r0: np.ndarray,
+    sigma_px: float,
+    min_length_px: float,
+    sin_min: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The least-squares line of each segment from its sums (see :func:`_edge_sums`).
+
+    Returns:
+        ``(fit, ok)``: (15, m) float64 rows as ``N_FIT`` says, and (m,) whether the segment is
+        kept (at least 3 edge points spread over rows, long and steep enough).
+    """
+    m = sums.shape[0]
+    fit = np.zeros((N_FIT, m))
+    ok = np.zeros(m, np.bool_)
+    var_min = sigma_px**2
+    for s in range(m):
+        n = sums[s, 0]
+        safe_n = max(n, 1.0)
+        mv = sums[s, 1] / safe_n
+        mu = sums[s, 2] / safe_n
+        svv = sums[s, 3] - n * mv * mv
+        suv = sums[s, 4] - n * mv * mu
+        suu = sums[s, 5] - n * mu * mu
+        good = n >= 3 and svv > 1e-9
+        b = suv / (svv if good else 1.0)  # slope relative to the detected line
+        rss = max(suu - b * suv, 0.0)
+        slope = inv_slope[s] + b
+        vc = r0[s] + mv  # mean row of the edge points
+        uc = x0[s] + inv_slope[s] * (vc - y0[s]) + mu  # the fitted column there
+        v0 = float(first_row[s])
+        v1 = float(last_row[s])
+        u0 = uc + slope * (v0 - vc)
+        u1 = uc + slope * (v1 - vc)
+        seg_len = np.hypot(u1 - u0, v1 - v0)
+        ok[s] = good and v1 > v0 and seg_len >= min_length_px and (v1 - v0) >= sin_min * seg_len
+        fit[0, s] = u0
+        fit[1, s] = v0
+        fit[2, s] = u1
+        fit[3, s] = v1
+        fit[4, s] = uc
+        fit[5, s] = vc
+        fit[6, s] = slope
+        fit[7, s] = max(rss / max(n - 2.0, 1.0), var_min)
+        fit[8, s] = n
+        fit[9, s] = svv
+        for c in range(5):
+            fit[10 + c, s] = sums[s, 6 + c] / safe_n
+    return fit, ok
+
+
+@functools.cache
+def segment_fits() -> Callable[..., Any]:
+    """The compiled :func:`_segment_fits` (compiled, or loaded from the cache, on first use)."""
+    import numba
+
+    return numba.njit(cache=True, nogil=True)(_segment_fits)

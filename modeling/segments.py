@@ -55,7 +55,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._edge_kernel import edge_sums
+from modeling._edge_kernel import edge_sums, segment_fits
 from modeling._validation import FloatArray, positive
 
 __all__ = ["ImageSegments", "extract_segment_pair", "extract_segments"]
@@ -490,30 +490,18 @@ def _fit(
         B,
         float(min_gradient),
     )
-    n = S[:, 0]
-    safe_n = np.maximum(n, 1.0)
-    mv = S[:, 1] / safe_n
-    mu = S[:, 2] / safe_n
-    svv = S[:, 3] - n * mv * mv
-    suv = S[:, 4] - n * mv * mu
-    suu = S[:, 5] - n * mu * mu
-    ok = (n >= 3) & (svv > 1e-9)
-    safe_svv = np.where(ok, svv, 1.0)
-    b = suv / safe_svv  # slope relative to the LSD line
-    rss = np.maximum(suu - b * suv, 0.0)
-    point_var = np.maximum(rss / np.maximum(n - 2.0, 1.0), sigma_px**2)
-    slope = inv_slope + b
-    vc = r0 + mv  # mean row of the edge points
-    uc = x0 + inv_slope * (vc - y0) + mu  # fitted column there (the LSD line plus the mean offset)
-    grey = S[:, 6:] / safe_n[:, None]  # contrast, grey_left, grey_right, near_left, near_right
-
-    # first and last row with edge points
-    v0 = first_row.astype(np.float64)
-    v1 = last_row.astype(np.float64)
-    u0 = uc + slope * (v0 - vc)
-    u1 = uc + slope * (v1 - vc)
-    seg_len = np.hypot(u1 - u0, v1 - v0)
-    ok &= (v1 > v0) & (seg_len >= min_length_px) & ((v1 - v0) >= sin_min * seg_len)
+    fit, ok = segment_fits()(
+        S,
+        first_row,
+        last_row,
+        x0,
+        y0,
+        inv_slope,
+        r0,
+        float(sigma_px),
+        float(min_length_px),
+        sin_min,
+    )
     sel = np.flatnonzero(ok)
     out = []
     for k in range(n_img):
@@ -521,28 +509,24 @@ def _fit(
         if mine.size == 0:
             out.append(ImageSegments.empty(shape, horizontal=horizontal[k]))
             continue
-        endpoints = np.empty((mine.size, 2, 2))
-        endpoints[:, 0, 0] = u0[mine]
-        endpoints[:, 0, 1] = v0[mine]
-        endpoints[:, 1, 0] = u1[mine]
-        endpoints[:, 1, 1] = v1[mine]
+        f = fit[:, mine]  # rows as ``_edge_kernel.N_FIT`` says, contiguous
         out.append(
             ImageSegments._trusted(
                 shape,
-                endpoints=endpoints,
-                u_center=uc[mine],
-                v_center=vc[mine],
-                slope=slope[mine],
-                point_var=point_var[mine],
-                n_points=n[mine].astype(np.int64),
-                s_vv=svv[mine],
+                endpoints=f[:4].T.reshape(-1, 2, 2),
+                u_center=f[4],
+                v_center=f[5],
+                slope=f[6],
+                point_var=f[7],
+                n_points=f[8].astype(np.int64),
+                s_vv=f[9],
                 bias_var=np.full(mine.size, float(bias_sigma_px) ** 2),
                 polarity=polarity[mine],
-                contrast=grey[mine, 0],
-                grey_left=grey[mine, 1],
-                grey_right=grey[mine, 2],
-                grey_left_near=grey[mine, 3],
-                grey_right_near=grey[mine, 4],
+                contrast=f[10],
+                grey_left=f[11],
+                grey_right=f[12],
+                grey_left_near=f[13],
+                grey_right_near=f[14],
                 horizontal=horizontal[k],
             )
         )
