@@ -52,11 +52,17 @@ def _observe(obstacles: tuple) -> tuple[ImageSegments, FloorObservation, shapely
     return segs_l, floor, truth
 
 
-def _box(y0: float, y1: float, x_front: float = 3.0, color: tuple = (0.55, 0.35, 0.2)) -> object:
-    """A plain box 1.5 m tall (above the robot: only its bottom edge can close it) whose front
-    face, at ``x_front``, spans ``y0 .. y1``."""
+def _box(
+    y0: float,
+    y1: float,
+    x_front: float = 3.0,
+    color: tuple = (0.55, 0.35, 0.2),
+    height_m: float = 1.5,
+) -> object:
+    """A plain box (by default 1.5 m tall: above the robot, only its bottom edge can close it)
+    whose front face, at ``x_front``, spans ``y0 .. y1``."""
     fp = [[x_front, y0], [x_front + 0.6, y0], [x_front + 0.6, y1], [x_front, y1]]
-    return scenes.make_obstacle("box", fp, height_m=1.5, color=color)
+    return scenes.make_obstacle("box", fp, height_m=height_m, color=color)
 
 
 def _added(before: FloorObservation, after: FloorObservation) -> list:
@@ -100,6 +106,19 @@ def test_a_real_gap_between_two_boxes_is_not_closed() -> None:
     # ... and none was made
     gap = shapely.box(2.9, -0.45, 3.9, 0.45)  # the free space between the boxes
     assert not any(shapely.LineString(s.endpoints).intersects(gap) for s in added)
+
+
+def test_the_top_edge_of_a_low_box_joins_its_tops_when_asked() -> None:
+    segs_l, floor, _ = _observe((_box(-0.6, 0.6, height_m=0.7),))  # below the robot's 1 m
+    bottoms = face_pairs(segs_l, floor)
+    both = face_pairs(segs_l, floor, tops=True)
+    assert [p for p in both if p[2] == 1] == bottoms
+    tops = [p for p in both if p[2] == 0]
+    assert len(tops) == 1 and set(tops[0][:2]) == set(bottoms[0][:2])
+    seg_a, seg_b = floor.segments[tops[0][0]], floor.segments[tops[0][1]]
+    assert abs(seg_a.height_m.max() - 0.7) <= 0.05 and abs(seg_b.height_m.max() - 0.7) <= 0.05
+    # joined once even when both ends are found
+    assert len(close_faces(segs_l, floor, tops=True).segments) == len(floor.segments) + 1
 
 
 def test_nothing_to_close_returns_the_observation_itself() -> None:
