@@ -1,8 +1,9 @@
 """End-to-end helpers: from a stereo pair to a floor observation and to an environment model.
 
 ``stereo_to_floor`` chains segment extraction (``modeling.segments``), matching
-(``modeling.matching``) and triangulation (``modeling.triangulation``); ``model_from_stereo``
-continues with ``modeling.model.build_model``.
+(``modeling.matching``), triangulation (``modeling.triangulation``) and, unless
+``close_faces=False``, the floor segments of plain faces (``modeling.faces``);
+``model_from_stereo`` continues with ``modeling.model.build_model``.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from modeling._validation import positive
+from modeling.faces import close_faces as close_faces_of
 from modeling.matching import match_segments
 from modeling.observation import FloorObservation
 from modeling.rig import HeadPose, StereoRig
@@ -99,15 +101,19 @@ def stereo_to_floor(
     right: NDArray[np.uint8],
     rig: StereoRig,
     head_pose: HeadPose,
+    *,
+    close_faces: bool = True,
     **kw: Any,
 ) -> FloorObservation:
-    """Floor observation of a rectified stereo pair: extract -> match -> triangulate.
+    """Floor observation of a rectified stereo pair: extract -> match -> triangulate (-> faces).
 
     Args:
         left: Left image, uint8 (H, W) grey or (H, W, 3) RGB, the rig's size.
         right: Right image, same size and kind.
         rig: The stereo rig.
         head_pose: Pose of the left optical centre.
+        close_faces: Add the floor segments of plain faces (:func:`modeling.faces.close_faces`,
+            as the env does by default); ``False``: the paper's pipeline alone.
         **kw: Options of ``extract_segments`` (e.g. ``sigma_px``), ``match_segments`` (e.g.
             ``rel_peak``) and ``triangulate_to_floor`` (``min_height_m``, ``max_height_m``).
 
@@ -130,7 +136,12 @@ def stereo_to_floor(
     ext, mat, tri = split_stereo_kwargs(kw)
     segs_l, segs_r = extract_segment_pair(gl, gr, **ext)
     matches = match_segments(segs_l, segs_r, rig, **mat)
-    return triangulate_to_floor(matches, rig, head_pose, **tri)
+    floor = triangulate_to_floor(matches, rig, head_pose, **tri)
+    if not isinstance(close_faces, bool):
+        raise ValueError(f"close_faces must be a bool, got {close_faces!r}")
+    if close_faces:
+        floor = close_faces_of(segs_l, floor, max_height_m=tri.get("max_height_m", 1.0))
+    return floor
 
 
 # ---------------------------------------------------------------------------------------------
@@ -162,8 +173,9 @@ def model_from_stereo(
         head_pose: Pose of the left optical centre, world frame.
         robot_width_m: Robot width (diameter), metres, > 0.
         **kw: Options of the stereo stages (those of :func:`stereo_to_floor`, e.g. ``sigma_px``,
-            ``rel_peak``, ``min_height_m``) and of ``build_model`` (``eps``, ``max_situations``,
-            ``min_isolated_length_m``, ``outline_buffer_m``), each passed to its own stage.
+            ``rel_peak``, ``min_height_m``, ``close_faces``) and of ``build_model`` (``eps``,
+            ``max_situations``, ``min_isolated_length_m``, ``outline_buffer_m``), each passed to
+            its own stage.
 
     Returns:
         The :class:`~modeling.model.EnvironmentModel` (world frame, metres).
@@ -174,7 +186,7 @@ def model_from_stereo(
     """
     positive(robot_width_m, "robot_width_m")  # fail before the stereo work
     model_keys = _model_keys()
-    stereo_keys = _EXTRACT_KEYS | _MATCH_KEYS | _TRIANGULATE_KEYS
+    stereo_keys = _EXTRACT_KEYS | _MATCH_KEYS | _TRIANGULATE_KEYS | {"close_faces"}
     unknown = sorted(set(kw) - model_keys - stereo_keys)
     if unknown:
         raise ValueError(

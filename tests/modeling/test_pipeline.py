@@ -33,7 +33,7 @@ def test_two_bars_far_apart_give_two_obstacles_where_they_stand() -> None:
     assert s.probability == 1.0
     assert len(s.obstacles) == 2 and s.critical_regions == ()
     # World y = -X_cam: the boards' edges are at y = +-0.6 and +-0.9, x = depth = 2.5.
-    centres = sorted(tuple(o.points.mean(axis=0)) for o in s.obstacles)
+    centres = sorted((tuple(o.points.mean(axis=0)) for o in s.obstacles), key=lambda c: c[1])
     np.testing.assert_allclose(centres, [(2.5, -0.75), (2.5, 0.75)], atol=0.05)
     # The same as the two stages called by hand.
     ref = build_model(stereo_to_floor(left, right, RIG, POSE), W)

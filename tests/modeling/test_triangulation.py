@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from synth import render_pair
 
+from modeling.faces import FACE_SOURCE
 from modeling.matching import StereoMatches
 from modeling.observation import FloorObservation
 from modeling.pipeline import stereo_to_floor
@@ -211,14 +212,21 @@ def test_stereo_to_floor_end_to_end_grey_and_rgb() -> None:
     # a board at X in [-0.4, -0.1], Z = 2 m, from 1.4 m above the camera down to the floor
     left, right, _ = render_pair(RIG, [(-0.4, -0.1, -0.6, 0.8, 2.0, 200.0)], noise=2.0, rng=rng)
     pose = HeadPose(x_m=0.0, y_m=0.0, heading_rad=0.0, height_m=0.8)
-    obs = stereo_to_floor(left, right, RIG, pose)
+    obs = stereo_to_floor(left, right, RIG, pose, close_faces=False)  # the paper's stages
     assert len(obs.segments) == 2
     xs = sorted(float(s.endpoints[:, 0].mean()) for s in obs.segments)
     np.testing.assert_allclose(xs, [2.0, 2.0], atol=0.05)  # world x = depth
     ys = sorted(float(s.endpoints[:, 1].mean()) for s in obs.segments)
     np.testing.assert_allclose(ys, [0.1, 0.4], atol=0.01)  # world y = -X_cam
+    # by default the board's bottom edge also joins its two edges (modeling.faces)
+    closed = stereo_to_floor(left, right, RIG, pose)
+    assert len(closed.segments) == 3
+    (face,) = [s for s in closed.segments if s.source == FACE_SOURCE]
+    np.testing.assert_allclose(sorted(face.endpoints[:, 1]), [0.1, 0.4], atol=0.01)
     rgb = stereo_to_floor(np.dstack([left] * 3), np.dstack([right] * 3), RIG, pose)
-    assert len(rgb.segments) == 2
+    assert len(rgb.segments) == 3
+    with pytest.raises(ValueError, match="close_faces"):
+        stereo_to_floor(left, right, RIG, pose, close_faces="yes")
     with pytest.raises(ValueError, match="left"):
         stereo_to_floor(left.astype(np.float32), right, RIG, pose)
     with pytest.raises(ValueError, match="right"):
