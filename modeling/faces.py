@@ -22,12 +22,14 @@ false on the evaluation scenes, against about one bottom join in twenty (``scrip
 suite, checked against the true footprints).
 
 This is an addition to the paper's pipeline (which uses vertical and oblique segments only); it
-can be turned off where the paper's pipeline alone is wanted (``close_faces=False`` in the env).
+can be turned off where the paper's pipeline alone is wanted (``close_faces=False`` in the env and
+in :func:`modeling.pipeline.stereo_to_floor`).
 """
 
 from __future__ import annotations
 
 import itertools
+from typing import Any
 
 import numpy as np
 
@@ -184,7 +186,7 @@ def face_pairs(
 def close_faces(
     left: ImageSegments,
     floor: FloorObservation,
-    **options: float,
+    **options: Any,
 ) -> FloorObservation:
     """``floor`` with a floor segment along each face found by :func:`face_pairs`.
 
