@@ -1,29 +1,29 @@
-"""Compiled inner loop of the segment fit (:mod:`modeling.segments`): edge points, row by row.
+"""Compiled loops of the segment fit (:mod:`modeling.segments`): edge points, then lines.
 
-For every image row a detected line crosses, the edge point is found as the parabolic peak of the
-horizontal central-difference gradient (of the segment's own contrast sign) in a window around the
-line, and the least-squares sums of the segment's edge points are accumulated. The arithmetic is
-that of the vectorised NumPy formulation it replaces (float32 gradients and peak offsets, float64
-sums), written as one loop over the rows so that it costs a fraction of the many array passes.
+:func:`edge_sums`: for every image row a detected line crosses, the edge point is found as the
+parabolic peak of the horizontal central-difference gradient (of the segment's own contrast sign)
+in a window around the line, and the least-squares sums of the segment's edge points are
+accumulated. :func:`segment_fits`: the least-squares line of each segment from its sums. The
+arithmetic is that of the vectorised NumPy formulation they replace (float32 gradients and peak
+offsets, float64 sums), written as loops so that it costs a fraction of the many array passes.
 
-The loop is compiled with Numba on first use (and cached on disk, so later processes only load
-it); importing this module does not import Numba.
+Both are compiled with Numba on first use (:mod:`modeling._jit`); importing this module does not
+import Numba.
 """
 
 from __future__ import annotations
 
-import functools
-from collections.abc import Callable
-from typing import Any
-
 import numpy as np
+
+from modeling._jit import compiled_on_first_call
 
 # Columns of the per-segment sums: n, sum v, sum u, sum v^2, sum v u, sum u^2, then the sums of the
 # peak gradient, the far grey level left and right, the near grey level left and right.
 N_SUMS = 11
 
 
-def _edge_sums(
+@compiled_on_first_call
+def edge_sums(
     stack: np.ndarray,
     height: int,
     image_of: np.ndarray,
@@ -145,21 +145,14 @@ def _edge_sums(
     return sums, polarity, first_row, last_row
 
 
-@functools.cache
-def edge_sums() -> Callable[..., Any]:
-    """The compiled :func:`_edge_sums` (compiled, or loaded from Numba's cache, on first call)."""
-    import numba
-
-    return numba.njit(cache=True, nogil=True)(_edge_sums)
-
-
 # Rows of the per-segment fit: the two ends (u0, v0, u1, v1), the fitted line (u_center, v_center,
 # slope), the per-point variance, n, S_vv, then the mean peak gradient and grey levels (far left,
 # far right, near left, near right).
 N_FIT = 15
 
 
-def _segment_fits(
+@compiled_on_first_call
+def segment_fits(
     sums: np.ndarray,
     first_row: np.ndarray,
     last_row: np.ndarray,
@@ -171,7 +164,7 @@ def _segment_fits(
     min_length_px: float,
     sin_min: float,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The least-squares line of each segment from its sums (see :func:`_edge_sums`).
+    """The least-squares line of each segment from its sums (see :func:`edge_sums`).
 
     Returns:
         ``(fit, ok)``: (15, m) float64 rows as ``N_FIT`` says, and (m,) whether the segment is
@@ -214,11 +207,3 @@ def _segment_fits(
         for c in range(5):
             fit[10 + c, s] = sums[s, 6 + c] / safe_n
     return fit, ok
-
-
-@functools.cache
-def segment_fits() -> Callable[..., Any]:
-    """The compiled :func:`_segment_fits` (compiled, or loaded from the cache, on first use)."""
-    import numba
-
-    return numba.njit(cache=True, nogil=True)(_segment_fits)

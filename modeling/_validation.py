@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -56,12 +58,15 @@ def probabilities(value: ArrayLike, name: str, *, atol: float = 1e-6) -> FloatAr
 
 
 def positive(value: float, name: str, *, allow_zero: bool = False) -> float:
-    """A finite positive (or non-negative) float."""
+    """A finite positive (or non-negative) float.
+
+    Plain Python arithmetic (no numpy scalar): the stages check their options on every call, and
+    the env calls them every step."""
     try:
         x = float(value)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name} must be a number, got {value!r}") from exc
-    if not np.isfinite(x) or x < 0 or (x == 0 and not allow_zero):
+    if not math.isfinite(x) or x < 0 or (x == 0 and not allow_zero):
         kind = "non-negative" if allow_zero else "positive"
         raise ValueError(f"{name} must be a finite {kind} number, got {value!r}")
     return x

@@ -216,15 +216,6 @@ class MatchCandidates:
         return int(self.left_index.shape[0])
 
 
-def _positive(value: float, name: str, *, allow_zero: bool = False) -> None:
-    """``positive``'s check, answered without numpy for a plain float in range (the defaults: the
-    env matches every step, and the numpy scalar checks cost a few percent of a match); anything
-    else goes to ``positive``, which raises the same errors as before."""
-    if type(value) is float and (0.0 <= value if allow_zero else 0.0 < value) and value < math.inf:
-        return
-    positive(value, name, allow_zero=allow_zero)
-
-
 def _check_segments(value: object, name: str) -> ImageSegments:
     if not isinstance(value, ImageSegments):
         raise ValueError(f"{name} must be an ImageSegments, got {type(value).__name__}")
@@ -252,9 +243,9 @@ def _check_inputs(
     checked = (_check_segments(left, "left"), _check_segments(right, "right"), _check_rig(rig))
     if not (0.0 <= min_overlap_frac <= 1.0):
         raise ValueError(f"min_overlap_frac must be in [0, 1], got {min_overlap_frac!r}")
-    _positive(min_overlap_px, "min_overlap_px", allow_zero=True)
-    _positive(max_angle_diff_deg, "max_angle_diff_deg")
-    _positive(agree_px, "agree_px")
+    positive(min_overlap_px, "min_overlap_px", allow_zero=True)
+    positive(max_angle_diff_deg, "max_angle_diff_deg")
+    positive(agree_px, "agree_px")
     for name, value in (
         ("max_grey_diff", max_grey_diff),
         ("max_near_grey_diff", max_near_grey_diff),
@@ -529,10 +520,10 @@ def match_segments(
         raise ValueError(f"opposite_weight must be in [0, 1], got {opposite_weight!r}")
     if not (0.0 < rel_peak <= 1.0):
         raise ValueError(f"rel_peak must be in (0, 1], got {rel_peak!r}")
-    _positive(self_weight, "self_weight", allow_zero=True)
-    _positive(smooth_px, "smooth_px")
-    _positive(min_peak_sep_px, "min_peak_sep_px")
-    _positive(sigma_v_px, "sigma_v_px")
+    positive(self_weight, "self_weight", allow_zero=True)
+    positive(smooth_px, "smooth_px")
+    positive(min_peak_sep_px, "min_peak_sep_px")
+    positive(sigma_v_px, "sigma_v_px")
     su, sv = (float(x) for x in region_sigma_px)
     if not (math.isfinite(su) and math.isfinite(sv) and su > 0 and sv > 0):
         raise ValueError(f"region_sigma_px must be two positive numbers, got {region_sigma_px!r}")

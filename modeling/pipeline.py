@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 import inspect
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import cv2
@@ -103,6 +104,7 @@ def stereo_to_floor(
     head_pose: HeadPose,
     *,
     close_faces: bool = True,
+    on_stage: Callable[[str], None] | None = None,
     **kw: Any,
 ) -> FloorObservation:
     """Floor observation of a rectified stereo pair: extract -> match -> triangulate (-> faces).
@@ -114,6 +116,8 @@ def stereo_to_floor(
         head_pose: Pose of the left optical centre.
         close_faces: Add the floor segments of plain faces (:func:`modeling.faces.close_faces`,
             as the env does by default); ``False``: the paper's pipeline alone.
+        on_stage: Called with ``"segments"``, ``"matching"`` and ``"triangulation"`` (faces
+            included) as each stage ends, e.g. to time them.
         **kw: Options of ``extract_segments`` (e.g. ``sigma_px``), ``match_segments`` (e.g.
             ``rel_peak``) and ``triangulate_to_floor`` (``min_height_m``, ``max_height_m``).
 
@@ -134,14 +138,22 @@ def stereo_to_floor(
     if gr.shape != want:
         raise ValueError(f"right must be {want[0]}x{want[1]} pixels (the rig's), got {gr.shape}")
     ext, mat, tri = split_stereo_kwargs(kw)
-    segs_l, segs_r = extract_segment_pair(gl, gr, **ext)
-    matches = match_segments(segs_l, segs_r, rig, **mat)
-    floor = triangulate_to_floor(matches, rig, head_pose, **tri)
     if not isinstance(close_faces, bool):
         raise ValueError(f"close_faces must be a bool, got {close_faces!r}")
+    stage_done = on_stage if on_stage is not None else _no_op
+    segs_l, segs_r = extract_segment_pair(gl, gr, **ext)
+    stage_done("segments")
+    matches = match_segments(segs_l, segs_r, rig, **mat)
+    stage_done("matching")
+    floor = triangulate_to_floor(matches, rig, head_pose, **tri)
     if close_faces:
         floor = close_faces_of(segs_l, floor, max_height_m=tri.get("max_height_m", 1.0))
+    stage_done("triangulation")
     return floor
+
+
+def _no_op(_: str) -> None:
+    pass
 
 
 # ---------------------------------------------------------------------------------------------

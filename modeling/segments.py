@@ -6,10 +6,10 @@ are always reshaped to (N, 4)). Every detected segment is then *re-localised at 
 in each image row it crosses, the sub-pixel column of its edge is found as the parabolic peak of
 the horizontal intensity gradient (central difference, of the segment's own contrast sign) near
 the LSD line, and the horizontal position ``u = u_c + slope * (v - v_c)`` is fitted to those edge
-points by least squares, as in section 3.2 of Miura (ICRA-94). The row-by-row part (a block of
-``2 B + 1`` pixels around the LSD line serves the gradient, the peak search and the grey levels on
-both sides) is one compiled loop (``modeling._edge_kernel``, Numba); the per-segment fit is
-vectorised over the segments.
+points by least squares, as in section 3.2 of Miura (ICRA-94). Both parts are compiled loops
+(``modeling._edge_kernel``, Numba): the row-by-row search (a block of ``2 B + 1`` pixels around the
+LSD line serves the gradient, the peak search and the grey levels on both sides) and the fit of
+each segment's line from its sums.
 
 Uncertainty model (section 3.2, "quantization error"). Each edge point's column is taken as
 ``u_i ~ N(a + b v_i, s^2)`` independently, where ``s^2`` is the residual variance of the fit, but at
@@ -44,6 +44,7 @@ Image frame: pixels, u right, v down, (0, 0) the centre of the top-left pixel.
 
 from __future__ import annotations
 
+import inspect
 import math
 import os
 import threading
@@ -376,21 +377,26 @@ def extract_segment_pair(
 
 
 class _Options(NamedTuple):
-    """The keyword options of :func:`extract_segments`, with their defaults."""
+    """The keyword options of :func:`extract_segments` (its signature holds the defaults)."""
 
-    sigma_px: float = 0.5
-    bias_sigma_px: float = 0.1
-    min_length_px: float = 12.0
-    min_angle_deg: float = 25.0
-    min_gradient: float = 5.0
-    lsd_scale: float = 0.5
-    search_px: int = 3
-    trim_px: int = 2
-    side_px: int = 3
-    near_px: float = 1.5
+    sigma_px: float
+    bias_sigma_px: float
+    min_length_px: float
+    min_angle_deg: float
+    min_gradient: float
+    lsd_scale: float
+    search_px: int
+    trim_px: int
+    side_px: int
+    near_px: float
 
 
-_DEFAULTS: dict[str, Any] = _Options()._asdict()
+_DEFAULTS: dict[str, Any] = {
+    name: p.default
+    for name, p in inspect.signature(extract_segments).parameters.items()
+    if p.kind is inspect.Parameter.KEYWORD_ONLY
+}
+assert tuple(_DEFAULTS) == _Options._fields
 
 
 # ------------------------------------------------------------------ the worker thread
@@ -432,9 +438,9 @@ def _fit(
 ) -> list[ImageSegments]:
     """Re-localise and fit the LSD lines of each image (same shapes), all in one pass.
 
-    The images are stacked vertically in one padded array for the pixel gathers; every other
-    quantity is computed in each image's own rows, so the result for one image does not depend on
-    the others.
+    The images are stacked vertically for the compiled loops; every quantity is computed in each
+    image's own rows (pixels past its sides replicate its edge columns), so the result for one
+    image does not depend on the others.
     """
     H, W = images[0].shape
     shape = (H, W)
@@ -475,7 +481,7 @@ def _fit(
     # pixel block around the LSD line covers the search window, the peak's neighbours and the
     # side samples
     B = search_px + max(side_px, math.ceil(near_px) + 1)
-    S, polarity, first_row, last_row = edge_sums()(
+    S, polarity, first_row, last_row = edge_sums(
         np.concatenate(images) if n_img > 1 else np.ascontiguousarray(images[0]),
         H,
         image_of,
@@ -490,7 +496,7 @@ def _fit(
         B,
         float(min_gradient),
     )
-    fit, ok = segment_fits()(
+    fit, ok = segment_fits(
         S,
         first_row,
         last_row,

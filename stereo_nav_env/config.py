@@ -181,8 +181,8 @@ class EnvConfig:
         eps: Classification tolerance of the model (passable if ``p > 1 - eps``, impassable if
             ``p < eps``), in (0, 0.5).
         model_max_situations: Most situations the model enumerates (``info["model"]``).
-        close_faces: Whether a face's top or bottom edge joining two vertical edges closes the
-            "gap" between them (:mod:`modeling.faces`, an addition to the paper's pipeline).
+        close_faces: Whether a face's bottom edge joining two vertical edges closes the "gap"
+            between them (:mod:`modeling.faces`, an addition to the paper's pipeline).
         diagnostics: Whether ``info["diagnostics"]`` compares the model with ground truth.
         observation: What the observation holds (:class:`ObservationConfig`).
         rewards: Reward weights (:class:`RewardConfig`).

@@ -1,9 +1,9 @@
 """From a rendered stereo pair to an environment model: pixel noise, the modeling pipeline, timing.
 
-The pipeline is the one of ``modeling`` (Miura, ICRA-94): segments in both images, matching,
-floor segments with uncertainty, then :func:`modeling.model.build_model` (obstacles, critical
-regions, occlusion, situations). The stages are called one by one (rather than through
-``modeling.pipeline.stereo_to_floor``) so that each can be timed.
+The pipeline is the one of ``modeling`` (Miura, ICRA-94): :func:`modeling.pipeline.stereo_to_floor`
+(segments in both images, matching, floor segments with uncertainty, plain faces), each stage
+timed through its ``on_stage`` callback, then :func:`modeling.model.build_model` (obstacles,
+critical regions, occlusion, situations).
 
 The model returned is a :class:`ComparableModel`: an :class:`~modeling.model.EnvironmentModel`
 whose ``==`` compares content (arrays, geometries, nested dataclasses) instead of identity, so that
@@ -17,7 +17,6 @@ import dataclasses
 import functools
 import math
 import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -27,13 +26,10 @@ import shapely
 from numpy.typing import NDArray
 from scipy.special import ndtri
 
-from modeling.faces import close_faces as close_faces_of
-from modeling.matching import match_segments
+from modeling._jit import compiled_on_first_call
 from modeling.model import EnvironmentModel, build_model
-from modeling.pipeline import to_gray
+from modeling.pipeline import stereo_to_floor
 from modeling.rig import HeadPose, StereoRig
-from modeling.segments import extract_segment_pair
-from modeling.triangulation import triangulate_to_floor
 
 __all__ = [
     "ComparableModel",
@@ -147,10 +143,11 @@ def draw_pixel_noise(
     if sigma <= 0:
         return None
     levels = rng.integers(0, _NOISE_LEVELS, (2, height_px, width_px), dtype=np.uint16)
-    return _lookup()(_noise_table(float(sigma)), levels)
+    return _lookup(_noise_table(float(sigma)), levels)
 
 
-def _lookup_loop(table: NDArray[np.int16], levels: NDArray[np.uint16]) -> NDArray[np.int16]:
+@compiled_on_first_call
+def _lookup(table: NDArray[np.int16], levels: NDArray[np.uint16]) -> NDArray[np.int16]:
     """``table[levels]``, one pass (NumPy's fancy indexing first widens the indices to intp)."""
     out = np.empty(levels.shape, np.int16)
     flat_in = levels.ravel()
@@ -158,14 +155,6 @@ def _lookup_loop(table: NDArray[np.int16], levels: NDArray[np.uint16]) -> NDArra
     for i in range(flat_in.shape[0]):
         flat_out[i] = table[flat_in[i]]
     return out
-
-
-@functools.cache
-def _lookup() -> Callable[[NDArray[np.int16], NDArray[np.uint16]], NDArray[np.int16]]:
-    """:func:`_lookup_loop` compiled with Numba (cached on disk) on first use."""
-    import numba
-
-    return numba.njit(cache=True, nogil=True)(_lookup_loop)
 
 
 def add_pixel_noise(image: UInt8Image, noise: NDArray[np.int16] | None) -> UInt8Image:
@@ -215,14 +204,15 @@ def perceive(
         The :class:`ComparableModel`.
     """
     watch = stopwatch if stopwatch is not None else Stopwatch()
-    segs_l, segs_r = extract_segment_pair(to_gray(left, "left"), to_gray(right, "right"))
-    watch.lap("segments")
-    matches = match_segments(segs_l, segs_r, rig)
-    watch.lap("matching")
-    floor = triangulate_to_floor(matches, rig, head_pose, max_height_m=robot_height_m)
-    if close_faces:
-        floor = close_faces_of(segs_l, floor, max_height_m=robot_height_m)
-    watch.lap("triangulation")
+    floor = stereo_to_floor(
+        left,
+        right,
+        rig,
+        head_pose,
+        close_faces=close_faces,
+        on_stage=watch.lap,
+        max_height_m=robot_height_m,
+    )
     model = build_model(floor, robot_width_m, eps=eps, max_situations=max_situations)
     out = ComparableModel.of(model)
     watch.lap("modeling")
