@@ -3,6 +3,10 @@
 ``import modeling`` does not import Numba (it costs about half a second); each loop is compiled,
 or loaded from Numba's on-disk cache (next to the source), the first time it is called, with the
 interpreter lock released while it runs.
+
+A loop may call scalar helpers of its own module marked with :func:`compiled_helper`: when the
+first loop of a module is compiled, its helpers are compiled too and replace the plain functions
+in the module's namespace (they stay callable from Python, with the same results).
 """
 
 from __future__ import annotations
@@ -12,6 +16,22 @@ from collections.abc import Callable
 from typing import Any, TypeVar
 
 F = TypeVar("F", bound=Callable[..., Any])
+
+_HELPER = "_compiled_helper"
+
+
+def compiled_helper(fn: F) -> F:
+    """Mark ``fn`` (a module-level function Numba can compile) as a helper of compiled loops."""
+    setattr(fn, _HELPER, True)
+    return fn
+
+
+def _compile_helpers(namespace: dict[str, Any]) -> None:
+    import numba
+
+    for name, obj in list(namespace.items()):
+        if getattr(obj, _HELPER, False) and not isinstance(obj, numba.core.dispatcher.Dispatcher):
+            namespace[name] = numba.njit(cache=True, nogil=True)(obj)
 
 
 def compiled_on_first_call(fn: F) -> F:
@@ -24,6 +44,7 @@ def compiled_on_first_call(fn: F) -> F:
         if compiled is None:
             import numba
 
+            _compile_helpers(fn.__globals__)
             compiled = numba.njit(cache=True, nogil=True)(fn)
         return compiled(*args)
 

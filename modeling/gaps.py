@@ -18,7 +18,8 @@ singularity at ``u = +-w`` (``h = w cos(theta)``, ``du = w cos(theta) dtheta``).
 is the narrow one, so the integration window is cut to ``m_u +- 8.5 s_u`` (outside it the mass is
 below 1e-16), and the window is split at the steps of the inner term (``w cos(theta) = |m_v|``)
 and around the peak of the outer density. The scalar function integrates adaptively with
-:func:`scipy.integrate.quad`. The batch function, vectorised over pairs, uses two rules: for
+:func:`scipy.integrate.quad`. The batch function (a compiled loop over pairs,
+:mod:`modeling._gap_kernel`) uses two rules: for
 *smooth* pairs, whose window lies well inside ``(-w, w)`` and whose inner term changes slowly across
 it (the common stereo case: a narrow lateral and a wide depth uncertainty), a 12-node
 Gauss-Hermite rule in ``u`` (error below 1e-9); for the others, 16-node Gauss-Legendre panels
@@ -39,6 +40,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy import integrate, special
 
+from modeling import _gap_kernel
 from modeling._validation import FloatArray, covariance, finite_array, positive
 
 __all__ = [
@@ -50,16 +52,14 @@ __all__ = [
     "gap_width_moments",
 ]
 
-_K_SIGMA = 8.5  # integration window, in standard deviations of the minor axis (tail < 1e-15)
+_K_SIGMA = _gap_kernel.K_SIGMA  # integration window, in minor-axis sigmas (tail < 1e-15)
 _K_SCREEN_EXACT = 8.5  # scalar function: answer 0 or 1 beyond this (error < 1e-15)
-_K_SCREEN_BATCH = 4.5  # batch function: answer 0 or 1 beyond this (error < exp(-10.1) < 4.1e-5)
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(16)
 _NODE_BLOCK = 4096  # quadrature nodes per block of vectorised evaluation (32 KiB per array)
-_PANEL_BLOCK = _NODE_BLOCK // 16  # panels per block of the batch quadrature
 _GH_NODES, _GH_WEIGHTS = np.polynomial.hermite_e.hermegauss(12)  # nodes within +-5.5
 _GH_WEIGHTS = _GH_WEIGHTS / _GH_WEIGHTS.sum()
-_GH_MAX_REACH = 0.95  # smooth pairs: |m_u| + _K_SIGMA s_u <= this fraction of the width
-_GH_MAX_SLOPE = 1.0  # ... and s_u |u| / (h s_v) <= this over the window
+for _rule in (_GL_NODES, _GL_WEIGHTS, _GH_NODES, _GH_WEIGHTS):
+    _rule.setflags(write=False)
 
 
 class Relation(IntEnum):
@@ -181,103 +181,34 @@ def _integrand(
     return dens * inner
 
 
-def _integrand_tau(
-    tau: FloatArray,
-    m_u: FloatArray,
-    s_u: FloatArray,
-    m_v: FloatArray,
-    s_v: FloatArray,
-    w: FloatArray,
-) -> FloatArray:
-    """The theta integrand in ``tau = tan(theta / 2)`` (rational: no trigonometric calls)."""
-    t2 = tau * tau
-    inv = 1.0 / (1.0 + t2)
-    st = 2.0 * tau * inv
-    h = w * np.maximum((1.0 - t2) * inv, 0.0)
-    z = (w * st - m_u) / s_u
-    dens = np.exp(-0.5 * z * z) * (h * 2.0 * inv / (math.sqrt(2.0 * math.pi) * s_u))
-    inner = special.ndtr((h - m_v) / s_v) - special.ndtr((-h - m_v) / s_v)
-    return dens * inner
-
-
-def _smooth(m_u: FloatArray, s_u: FloatArray, s_v: FloatArray, w: FloatArray) -> np.ndarray:
-    """Pairs for the Gauss-Hermite rule (m,): the outer window lies well inside (-w, w) and the
-    inner term changes slowly across it (its argument moves by at most ``_GH_MAX_SLOPE`` per outer
-    standard deviation), so a 12-node rule is exact to 1e-9 (checked by the tests)."""
-    reach = np.abs(m_u) + _K_SIGMA * s_u
-    h_min = np.sqrt(np.maximum(w * w - reach * reach, 0.0))
-    return (reach <= _GH_MAX_REACH * w) & (s_u * reach <= _GH_MAX_SLOPE * h_min * s_v)
-
-
 def _p_inside_batch(mu: FloatArray, S: FloatArray, w: FloatArray) -> FloatArray:
-    """P(||d|| <= w) for (m,) pairs by Gauss-Hermite or Gauss-Legendre (see module docstring).
+    """P(||d|| <= w) for (m,) pairs ``d ~ N(mu, S)``, ``w > 0`` (compiled loop, see
+    :func:`modeling._gap_kernel.p_inside`).
 
-    Pairs whose mean is more than ``_K_SCREEN_BATCH`` major-axis sigmas outside (inside) the disc
-    get 0 (1): ``P(||d - mu|| >= r) <= exp(-r^2 / (2 s_v^2))`` bounds the error by 4.1e-5; so do
-    pairs more than ``_K_SCREEN_BATCH`` radial sigmas outside (``||d|| >= d . mu / |mu|``, a
-    normal with the radial variance), error below 3.4e-6, and pairs whose mean lies more than that
-    many sigmas outside the strip ``|u| <= w`` or ``|v| <= w`` of an eigen-axis.
+    Pairs whose mean is more than ``K_SCREEN_BATCH`` (4.5) major-axis sigmas outside (inside) the
+    disc get 0 (1): ``P(||d - mu|| >= r) <= exp(-r^2 / (2 s_v^2))`` bounds the error by 4.1e-5; so
+    do pairs more than that many radial sigmas outside (``||d|| >= d . mu / |mu|``, a normal with
+    the radial variance), error below 3.4e-6, and pairs whose mean lies more than that many sigmas
+    outside the strip ``|u| <= w`` or ``|v| <= w`` of an eigen-axis. *Smooth* pairs (the window
+    ``m_u +- 8.5 s_u`` within 0.95 w, and the inner term's argument moving by at most one per
+    outer standard deviation) take the 12-node Gauss-Hermite rule in ``u`` (exact to 1e-9); the
+    others 16-node Gauss-Legendre panels between the breakpoints of :func:`_windows`, in
+    ``tau = tan(theta / 2)``.
     """
-    m = mu.shape[0]
-    out = np.zeros(m)
-    if m == 0:
-        return out
-    m_u, s_u, m_v, s_v = _eigen_frame(mu, S, w)
-    dist = np.hypot(mu[:, 0], mu[:, 1])
-    # ||d|| >= d . e with e = mu / |mu|, and d . e ~ N(|mu|, e^T S e): a tighter "outside" test.
-    with np.errstate(invalid="ignore", divide="ignore"):
-        e = mu / dist[:, None]
-        s_e = np.sqrt(np.einsum("mi,mij,mj->m", e, S, e))
-    # The disc lies in every strip |d . e| <= w: the minor and major axes give two more tests.
-    outside = (
-        (dist - w > _K_SCREEN_BATCH * s_v)
-        | ((dist > 0) & (dist - w > _K_SCREEN_BATCH * s_e))
-        | (np.abs(m_u) - w > _K_SCREEN_BATCH * s_u)
-        | (np.abs(m_v) - w > _K_SCREEN_BATCH * s_v)
+    if mu.shape[0] == 0:
+        return np.zeros(0)
+    return _gap_kernel.p_inside_batch(
+        np.ascontiguousarray(mu, dtype=np.float64),
+        np.ascontiguousarray(S, dtype=np.float64),
+        np.ascontiguousarray(w, dtype=np.float64),
+        *quadrature_rules(),
     )
-    inside = w - dist > _K_SCREEN_BATCH * s_v
-    out[inside] = 1.0
-    todo = ~(outside | inside)
-    if not todo.any():
-        return out
-    smooth = todo & _smooth(m_u, s_u, s_v, w)
-    idx = smooth.nonzero()[0]
-    rows = _NODE_BLOCK // _GH_NODES.shape[0]
-    for b0 in range(0, idx.shape[0], rows):
-        k = idx[b0 : b0 + rows, None]
-        u = m_u[k] + s_u[k] * _GH_NODES[None, :]
-        h = np.sqrt(w[k] * w[k] - u * u)
-        mv_, sv_ = np.abs(m_v[k]), s_v[k]
-        inner = special.ndtr((h - mv_) / sv_) - special.ndtr((-h - mv_) / sv_)
-        out[k[:, 0]] = (inner @ _GH_WEIGHTS).clip(0.0, 1.0)
-    todo &= ~smooth
-    if not todo.any():
-        return out
-    idx = todo.nonzero()[0]
-    mu_, su, mv, sv, ww = m_u[idx], s_u[idx], m_v[idx], s_v[idx], w[idx]
-    bps, _, valid = _windows(mu_, su, mv, sv, ww)
-    # Panels between consecutive distinct breakpoints (in tau = tan(theta / 2)); empty panels
-    # are dropped.
-    bps = np.tan(0.5 * bps)
-    a0, a1 = bps[:, :-1], bps[:, 1:]
-    nonempty = (a1 > a0) & valid[:, None]
-    pair, _ = np.nonzero(nonempty)
-    p0, p1 = a0[nonempty], a1[nonempty]
-    half = 0.5 * (p1 - p0)
-    mid = 0.5 * (p1 + p0)
-    mv = np.abs(mv)
-    panel_sums = np.empty(pair.shape[0])
-    # Blocks of panels keep the temporaries small (in cache, and reused by the allocator instead
-    # of fresh pages from the system, whose faults would cost more than the arithmetic).
-    for b0 in range(0, pair.shape[0], _PANEL_BLOCK):
-        b1 = b0 + _PANEL_BLOCK
-        pr = pair[b0:b1, None]
-        tau = mid[b0:b1, None] + half[b0:b1, None] * _GL_NODES[None, :]
-        vals = _integrand_tau(tau, mu_[pr], su[pr], mv[pr], sv[pr], ww[pr])
-        panel_sums[b0:b1] = (vals @ _GL_WEIGHTS) * half[b0:b1]
-    res = np.bincount(pair, weights=panel_sums, minlength=idx.shape[0])
-    out[idx] = res.clip(0.0, 1.0)
-    return out
+
+
+def quadrature_rules() -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The batch rules: Gauss-Hermite nodes and weights (summing to 1), Gauss-Legendre nodes and
+    weights on [-1, 1]."""
+    return _GH_NODES, _GH_WEIGHTS, _GL_NODES, _GL_WEIGHTS
 
 
 def _p_inside_scalar(mu: FloatArray, S: FloatArray, w: float) -> float:
@@ -362,8 +293,9 @@ def gap_passable_probability_batch(
 ) -> FloatArray:
     """Vectorised :func:`gap_passable_probability` for many pairs (the hot loop of the modeling).
 
-    Composite Gauss-Legendre quadrature (96 nodes per pair, only for pairs whose outcome is
-    not already certain); agrees with the scalar function to better than 1e-4.
+    A 12-node Gauss-Hermite rule for smooth pairs, composite 16-node Gauss-Legendre panels for
+    the others, only for pairs whose outcome is not already certain (see the module docstring);
+    agrees with the scalar function to better than 1e-4.
 
     Args:
         mean_a: (m, 2) means of the first points, metres.
@@ -457,7 +389,7 @@ def gap_width_moments(
     for sel, minor_order in ((thin, max(4, order // 3)), (~thin, order)):
         z1, z2, W = _hermite_grid(order, minor_order)
         idx = np.flatnonzero(sel)
-        rows = max(1, _NODE_BLOCK // z1.shape[0])  # small blocks: see _p_inside_batch
+        rows = max(1, _NODE_BLOCK // z1.shape[0])  # small blocks: temporaries stay in cache
         for r0 in range(0, idx.shape[0], rows):
             r = idx[r0 : r0 + rows]
             # Nodes mu + z1 sd_major e_major + z2 sd_minor e_minor; e_major = (c, s),

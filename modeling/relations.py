@@ -26,8 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
+from modeling import _gap_kernel
 from modeling._validation import FloatArray
-from modeling.gaps import Relation, classify_gaps, passable_from_difference
+from modeling.gaps import Relation, classify_gaps, quadrature_rules
 
 __all__ = ["SegmentRelations", "closest_points", "segment_relations"]
 
@@ -104,51 +105,12 @@ def closest_points(
         ``p2 + t (q2 - p2)`` (after Ericson, Real-Time Collision Detection, 5.1.9). For parallel
         overlapping segments the middle of the overlap is chosen.
     """
-    d1 = q1 - p1
-    d2 = q2 - p2
-    r = p1 - p2
-    a = np.einsum("ij,ij->i", d1, d1)
-    e = np.einsum("ij,ij->i", d2, d2)
-    f = np.einsum("ij,ij->i", d2, r)
-    c = np.einsum("ij,ij->i", d1, r)
-    b = np.einsum("ij,ij->i", d1, d2)
-    tiny = 1e-18
-    a_ok = a > tiny
-    e_ok = e > tiny
-    denom = a * e - b * b
-    # ``x.clip(lo, hi)`` is the same ufunc as ``np.clip`` without its Python-level dispatch: this
-    # runs for every candidate pair of every model, on small arrays where the overhead dominates.
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s_gen = np.where(denom > 1e-12 * a * e, (b * f - c * e) / denom, np.nan)
-        # Segment 2's endpoints projected onto segment 1, clamped: the parallel case takes the
-        # middle of the overlap; they also clamp s when t is clamped, and serve a point segment 2.
-        s_at_p2 = (-c / a).clip(0.0, 1.0)
-        s_at_q2 = ((b - c) / a).clip(0.0, 1.0)
-        s_par = 0.5 * (s_at_p2 + s_at_q2)
-        s = np.where(np.isnan(s_gen), s_par, s_gen).clip(0.0, 1.0)
-        t = (b * s + f) / e
-        low = t < 0.0
-        high = t > 1.0
-        t = t.clip(0.0, 1.0)
-        s = np.where(low, s_at_p2, s)
-        s = np.where(high, s_at_q2, s)
-        # Degenerate (point) segments.
-        t_pt1 = (f / e).clip(0.0, 1.0)
-    s = np.where(~a_ok, 0.0, np.where(~e_ok, s_at_p2, s))
-    t = np.where(~a_ok, np.where(e_ok, t_pt1, 0.0), np.where(~e_ok, 0.0, t))
-    # Every entry is clamped to [0, 1] or NaN (from 0 / 0), never infinite, so zeroing the NaNs
-    # in place (both arrays are fresh) is what ``np.nan_to_num`` did, at a fraction of its cost.
-    s[np.isnan(s)] = 0.0
-    t[np.isnan(t)] = 0.0
-    return s, t
-
-
-def _interp(ends: FloatArray, covs: FloatArray, t: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Mean (m, 2) and covariance (m, 2, 2) of the point at parameter ``t`` (m,)."""
-    u = 1.0 - t
-    mean = u[:, None] * ends[:, 0] + t[:, None] * ends[:, 1]
-    cov = (u * u)[:, None, None] * covs[:, 0] + (t * t)[:, None, None] * covs[:, 1]
-    return mean, cov
+    return _gap_kernel.closest_params_batch(
+        np.ascontiguousarray(p1, dtype=np.float64),
+        np.ascontiguousarray(q1, dtype=np.float64),
+        np.ascontiguousarray(p2, dtype=np.float64),
+        np.ascontiguousarray(q2, dtype=np.float64),
+    )
 
 
 def candidate_pairs(
@@ -190,15 +152,11 @@ def _pairs_and_params(
     i, j = q[0][upper].astype(np.int64), q[1][upper].astype(np.int64)
     if i.shape[0] == 0:
         return empty, np.zeros(0), np.zeros(0)
-    # Exact filter on the mean distance between the segments.
-    Ei, Ej = endpoints[i], endpoints[j]
-    s_, t_ = closest_points(Ei[:, 0], Ei[:, 1], Ej[:, 0], Ej[:, 1])
-    pa = Ei[:, 0] + s_[:, None] * (Ei[:, 1] - Ei[:, 0])
-    pb = Ej[:, 0] + t_[:, None] * (Ej[:, 1] - Ej[:, 0])
-    d = np.hypot(*(pb - pa).T)
-    keep = np.flatnonzero(d <= width_m + k * (sigma[i] + sigma[j]))
-    keep = keep[np.argsort(i[keep] * n + j[keep], kind="stable")]  # rows sorted by (i, j)
-    return np.stack([i[keep], j[keep]], axis=1), s_[keep], t_[keep]
+    # Exact filter on the mean distance between the segments, rows sorted by (i, j).
+    order = np.argsort(i * n + j)
+    i, j = i[order], j[order]
+    keep, s_, t_ = _gap_kernel.near_pairs(endpoints, i, j, width_m + k * (sigma[i] + sigma[j]))
+    return np.stack([i[keep], j[keep]], axis=1), s_, t_
 
 
 def prune_sigmas(eps: float) -> float:
@@ -231,20 +189,20 @@ def segment_relations(
     Returns:
         The :class:`SegmentRelations`, rows sorted by ``(i, j)``.
     """
+    endpoints = np.ascontiguousarray(endpoints, dtype=np.float64)
+    cov = np.ascontiguousarray(cov, dtype=np.float64)
     if pairs is None:
         pairs, s, t = _pairs_and_params(endpoints, cov, width_m, eps)
         # Contiguous copies: every stage of the model indexes with these columns.
         i, j = pairs[:, 0].copy(), pairs[:, 1].copy()
-        Ei, Ej = endpoints[i], endpoints[j]
     else:
         i = np.minimum(pairs[:, 0], pairs[:, 1]).astype(np.int64)
         j = np.maximum(pairs[:, 0], pairs[:, 1]).astype(np.int64)
         Ei, Ej = endpoints[i], endpoints[j]
         s, t = closest_points(Ei[:, 0], Ei[:, 1], Ej[:, 0], Ej[:, 1])
-    mi, ci = _interp(Ei, cov[i], s)
-    mj, cj = _interp(Ej, cov[j], t)
-    diff = mj - mi
-    p = passable_from_difference(diff, ci + cj, np.full(i.shape[0], float(width_m)))
+    mi, mj, ci, cj, dist, p = _gap_kernel.relation_rows(
+        endpoints, cov, i, j, s, t, float(width_m), *quadrature_rules()
+    )
     return SegmentRelations(
         i=i,
         j=j,
@@ -252,7 +210,7 @@ def segment_relations(
         point_j=mj,
         cov_i=ci,
         cov_j=cj,
-        distance_m=np.hypot(diff[:, 0], diff[:, 1]),
+        distance_m=dist,
         p_passable=p,
         kind=classify_gaps(p, eps),
     )

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
+from modeling._gap_kernel import smooth as is_smooth
 from modeling.gaps import (
     Relation,
     _eigen_frame,
-    _smooth,
     classify_gap,
     classify_gaps,
     gap_passable_probability,
@@ -116,7 +116,7 @@ def test_batch_rules_agree_with_adaptive_quadrature_on_stereo_like_pairs() -> No
     S = np.array([ca + cb for _, ca, _, cb, _ in cases])
     w = np.array([c[4] for c in cases])
     m_u, s_u, _, s_v = _eigen_frame(mu, S, w)
-    smooth = _smooth(m_u, s_u, s_v, w)
+    smooth = np.array([is_smooth(*x) for x in zip(m_u, s_u, s_v, w, strict=True)])
     batch = gap_passable_probability_batch(np.zeros_like(mu), S / 2, mu, S / 2, w)
     scalar = np.array(
         [gap_passable_probability([0, 0], S[k] / 2, mu[k], S[k] / 2, w[k]) for k in range(600)]
