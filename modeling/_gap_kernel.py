@@ -310,3 +310,47 @@ def relation_rows(
         else:
             p[k] = 1.0
     return pi, pj, ci, cj, dist, p
+
+
+@compiled_on_first_call
+def width_moments(
+    mu: np.ndarray,
+    S: np.ndarray,
+    z1: np.ndarray,
+    z2: np.ndarray,
+    weights: np.ndarray,
+    z1_thin: np.ndarray,
+    z2_thin: np.ndarray,
+    weights_thin: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and standard deviation of ``||d||`` for ``d ~ N(mu, S)`` (see
+    :func:`modeling.gaps.gap_width_moments`): a tensor Gauss-Hermite rule in the eigenbasis of
+    ``S`` (nodes ``z1`` along the major axis, ``z2`` along the minor one, ``weights`` summing to
+    1), the ``*_thin`` rule where the minor standard deviation is below a tenth of the major one;
+    the second moment exact."""
+    m = mu.shape[0]
+    mean = np.empty(m)
+    std = np.empty(m)
+    for k in range(m):
+        a, b, d = S[k, 0, 0], S[k, 0, 1], S[k, 1, 1]
+        half_tr = 0.5 * (a + d)
+        r = math.hypot(0.5 * (a - d), b)
+        sd_major = math.sqrt(half_tr + r)
+        sd_minor = math.sqrt(max(half_tr - r, 0.0))
+        phi = 0.5 * math.atan2(2.0 * b, a - d)  # direction of the major axis
+        c, s = math.cos(phi), math.sin(phi)
+        thin = sd_minor < 0.1 * sd_major
+        n1, n2, w = (z1_thin, z2_thin, weights_thin) if thin else (z1, z2, weights)
+        total = 0.0
+        for q in range(w.shape[0]):
+            # Node mu + z1 sd_major e_major + z2 sd_minor e_minor; e_major = (c, s),
+            # e_minor = (-s, c).
+            u = sd_major * n1[q]
+            v = sd_minor * n2[q]
+            px = mu[k, 0] + c * u - s * v
+            py = mu[k, 1] + s * u + c * v
+            total += math.sqrt(px * px + py * py) * w[q]
+        mean[k] = total
+        second = mu[k, 0] * mu[k, 0] + mu[k, 1] * mu[k, 1] + a + d
+        std[k] = math.sqrt(max(second - total * total, 0.0))
+    return mean, std

@@ -55,7 +55,6 @@ __all__ = [
 _K_SIGMA = _gap_kernel.K_SIGMA  # integration window, in minor-axis sigmas (tail < 1e-15)
 _K_SCREEN_EXACT = 8.5  # scalar function: answer 0 or 1 beyond this (error < 1e-15)
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(16)
-_NODE_BLOCK = 4096  # quadrature nodes per block of vectorised evaluation (32 KiB per array)
 _GH_NODES, _GH_WEIGHTS = np.polynomial.hermite_e.hermegauss(12)  # nodes within +-5.5
 _GH_WEIGHTS = _GH_WEIGHTS / _GH_WEIGHTS.sum()
 for _rule in (_GL_NODES, _GL_WEIGHTS, _GH_NODES, _GH_WEIGHTS):
@@ -378,27 +377,10 @@ def gap_width_moments(
     if mu.shape[0] == 0:
         return np.zeros(0), np.zeros(0)
     order = int(order)
-    a_, b_, d_ = S[:, 0, 0], S[:, 0, 1], S[:, 1, 1]
-    half_tr, r_ = 0.5 * (a_ + d_), np.hypot(0.5 * (a_ - d_), b_)
-    sd_major = np.sqrt(half_tr + r_)
-    sd_minor = np.sqrt(np.maximum(half_tr - r_, 0.0))
-    phi = 0.5 * np.arctan2(2.0 * b_, a_ - d_)  # direction of the major axis
-    c_, s_ = np.cos(phi)[:, None], np.sin(phi)[:, None]
-    mean = np.empty(mu.shape[0])
-    thin = sd_minor < 0.1 * sd_major
-    for sel, minor_order in ((thin, max(4, order // 3)), (~thin, order)):
-        z1, z2, W = _hermite_grid(order, minor_order)
-        idx = np.flatnonzero(sel)
-        rows = max(1, _NODE_BLOCK // z1.shape[0])  # small blocks: temporaries stay in cache
-        for r0 in range(0, idx.shape[0], rows):
-            r = idx[r0 : r0 + rows]
-            # Nodes mu + z1 sd_major e_major + z2 sd_minor e_minor; e_major = (c, s),
-            # e_minor = (-s, c).
-            a = sd_major[r, None] * z1[None, :]  # (rows, q)
-            b = sd_minor[r, None] * z2[None, :]
-            px = mu[r, 0, None] + c_[r] * a - s_[r] * b
-            py = mu[r, 1, None] + s_[r] * a + c_[r] * b
-            mean[r] = np.sqrt(px * px + py * py) @ W  # (np.hypot is ten times slower)
-    second = np.einsum("mi,mi->m", mu, mu) + a_ + d_
-    std = np.sqrt(np.maximum(second - mean * mean, 0.0))
+    mean, std = _gap_kernel.width_moments(
+        np.ascontiguousarray(mu),
+        np.ascontiguousarray(S),
+        *_hermite_grid(order, order),
+        *_hermite_grid(order, max(4, order // 3)),
+    )
     return mean, std
