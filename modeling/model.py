@@ -71,6 +71,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import numpy as np
 import shapely
 
+from modeling import _ray_kernel
 from modeling._validation import FloatArray, positive
 from modeling.gaps import Relation, _check_eps, gap_width_moments
 from modeling.observation import FloorObservation
@@ -832,20 +833,9 @@ def _occlusion(obs: FloorObservation, ends: FloatArray, n_rays: int = 361) -> An
     k0 = np.clip(np.ceil((lo + half) / step - 1e-9), 0, n_rays).astype(np.int64)
     k1 = np.clip(np.floor((hi + half) / step + 1e-9), -1, n_rays - 1).astype(np.int64)
     cnt = np.where(ok, np.maximum(k1 - k0 + 1, 0), 0)
-    total = int(cnt.sum())
-    if total == 0:
+    if not cnt.any():
         return _EMPTY_POLYGON
-    seg = np.repeat(np.arange(ends.shape[0]), cnt)
-    ray = k0[seg] + np.arange(total) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    ux, uy = u[ray, 0], u[ray, 1]
-    px, py, ex, ey = p[seg, 0], p[seg, 1], e[seg, 0], e[seg, 1]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        denom = ux * ey - uy * ex
-        r = (px * ey - py * ex) / denom
-        sp = (px * uy - py * ux) / denom
-    hit = (np.abs(denom) > 1e-15) & (sp >= -1e-9) & (sp <= 1.0 + 1e-9) & (r > 1e-9)
-    rng = np.full(n_rays, np.inf)
-    np.minimum.at(rng, ray[hit], r[hit])
+    rng = _ray_kernel.nearest_hits(u, p, e, k0, cnt)
     blocked = rng < R
     if not blocked.any():
         return _EMPTY_POLYGON
