@@ -307,21 +307,21 @@ def _record_maker(cls: type[_R], names: tuple[str, ...]) -> Callable[..., _R]:
 
     ``make(v1, v2, ...)`` sets the fields ``names`` (every field of ``cls``, in that order)
     through their slot descriptors: the same object the generated ``__init__`` makes through
-    ``object.__setattr__``, at about 60 % of its cost, which matters for the hundreds of
-    regions, passages and obstacles of a large model.
+    ``object.__setattr__``, at about 40 % of its cost, which matters for the hundreds of
+    regions, passages and obstacles of a large model. The function is generated (as dataclasses
+    generates ``__init__``): one line per field, no loop.
     """
     fields_ = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
     if set(names) != fields_ or len(names) != len(fields_):
         raise TypeError(f"{cls.__name__} has fields {sorted(fields_)}, not {names}")
-    setters = tuple(getattr(cls, name).__set__ for name in names)
-    new = object.__new__
-
-    def make(*values: Any) -> _R:
-        obj = new(cls)
-        for set_field, value in zip(setters, values, strict=True):
-            set_field(obj, value)
-        return obj
-
+    lines = [f"def make({', '.join(names)}):", "    obj = new(cls)"]
+    lines += [f"    set_{name}(obj, {name})" for name in names]
+    lines.append("    return obj")
+    namespace: dict[str, Any] = {"new": object.__new__, "cls": cls}
+    namespace.update({f"set_{name}": getattr(cls, name).__set__ for name in names})
+    exec("\n".join(lines), namespace)  # the source is built from the class's field names
+    make: Callable[..., _R] = namespace["make"]
+    make.__qualname__ = make.__name__ = f"make_{cls.__name__}"
     return make
 
 
