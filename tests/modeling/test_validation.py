@@ -97,3 +97,31 @@ def test_single_segment_is_one_obstacle() -> None:
     (s,) = m.situations
     assert len(s.obstacles) == 1
     assert s.obstacles[0].polygon.shape[1] == 2 and s.obstacles[0].polygon.shape[0] >= 3
+
+
+def test_fast_record_constructors_make_the_same_frozen_objects() -> None:
+    import dataclasses
+
+    from modeling.model import CriticalRegion, Passage, _make_region, _record_maker
+
+    a, b = np.zeros((4, 2)), np.ones((2, 2))
+    fast = _make_region((0, 1), a, 0.6, 0.05, 0.4, b, (3, 7), np.zeros((2, 2, 2)))
+    slow = CriticalRegion(
+        obstacles=(0, 1),
+        polygon=a,
+        width_mean_m=0.6,
+        width_std_m=0.05,
+        p_passable=0.4,
+        narrowest=b,
+        relations=(3, 7),
+        relation_lines=fast.relation_lines,
+    )
+    for f in dataclasses.fields(CriticalRegion):
+        assert getattr(fast, f.name) is getattr(slow, f.name) or getattr(fast, f.name) == getattr(
+            slow, f.name
+        )
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        fast.p_passable = 1.0  # type: ignore[misc]
+    # The field list must be the class's own (order is the caller's, checked by name).
+    with pytest.raises(TypeError, match="Passage"):
+        _record_maker(Passage, ("obstacles", "narrowest", "width_mean_m", "p_passable"))
