@@ -21,7 +21,7 @@ from modeling.faces import close_faces as close_faces_of
 from modeling.matching import match_segments
 from modeling.observation import FloorObservation
 from modeling.rig import HeadPose, StereoRig
-from modeling.segments import extract_segment_pair
+from modeling.segments import extract_segment_pair, extract_segments
 from modeling.triangulation import triangulate_to_floor
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -29,38 +29,17 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["model_from_stereo", "stereo_to_floor", "to_gray"]
 
-_EXTRACT_KEYS = frozenset(
-    {
-        "sigma_px",
-        "bias_sigma_px",
-        "min_length_px",
-        "min_angle_deg",
-        "min_gradient",
-        "lsd_scale",
-        "search_px",
-        "trim_px",
-        "side_px",
-    }
-)
-_MATCH_KEYS = frozenset(
-    {
-        "min_overlap_frac",
-        "min_overlap_px",
-        "max_angle_diff_deg",
-        "allow_opposite",
-        "opposite_weight",
-        "region_sigma_px",
-        "smooth_px",
-        "rel_peak",
-        "min_peak_sep_px",
-        "agree_px",
-        "sigma_v_px",
-        "max_grey_diff",
-        "self_weight",
-        "unique_right",
-    }
-)
-_TRIANGULATE_KEYS = frozenset({"min_height_m", "max_height_m", "min_probability"})
+
+def _keyword_options(fn: Callable[..., Any]) -> frozenset[str]:
+    """The names of ``fn``'s keyword-only parameters (its options)."""
+    params = inspect.signature(fn).parameters.values()
+    return frozenset(p.name for p in params if p.kind is inspect.Parameter.KEYWORD_ONLY)
+
+
+# The options of each stage, read from its signature (the one place they are listed).
+_EXTRACT_KEYS = _keyword_options(extract_segments)
+_MATCH_KEYS = _keyword_options(match_segments)
+_TRIANGULATE_KEYS = _keyword_options(triangulate_to_floor)
 
 
 def to_gray(image: NDArray[np.uint8], name: str = "image") -> NDArray[np.uint8]:
@@ -163,8 +142,7 @@ def _model_keys() -> frozenset[str]:
     """The keyword-only options of :func:`~modeling.model.build_model`."""
     from modeling.model import build_model
 
-    params = inspect.signature(build_model).parameters.values()
-    return frozenset(p.name for p in params if p.kind is inspect.Parameter.KEYWORD_ONLY)
+    return _keyword_options(build_model)
 
 
 def model_from_stereo(

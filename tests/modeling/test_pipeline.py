@@ -59,6 +59,18 @@ def test_options_reach_their_stage() -> None:
     assert s.obstacles == () and s.probability == 1.0
 
 
+def test_every_stage_option_is_accepted_and_reaches_its_stage() -> None:
+    # Each stage's keyword options are routed (the lists are read from the signatures), so the
+    # newer ones are not refused as unknown: a bad value fails in its own stage, naming it.
+    left, right = bars(1.2)
+    floor = stereo_to_floor(left, right, RIG, POSE, near_px=1.0, max_near_grey_diff=12.0)
+    assert len(floor.segments) > 0
+    with pytest.raises(ValueError, match="near_px"):
+        stereo_to_floor(left, right, RIG, POSE, near_px=-1.0)
+    with pytest.raises(ValueError, match="max_near_grey_diff"):
+        model_from_stereo(left, right, RIG, POSE, W, max_near_grey_diff=-1.0)
+
+
 def test_unknown_and_bad_options_are_value_errors_naming_them() -> None:
     left, right = bars(1.2)
     with pytest.raises(ValueError, match=r"bogus.*typo_eps|typo_eps.*bogus"):
