@@ -3,10 +3,10 @@
 
 The arithmetic is that of the vectorised NumPy formulation they replace (see
 :mod:`modeling.gaps` for the method: screening by Gaussian tail bounds, a 12-node Gauss-Hermite
-rule for smooth pairs, 16-node Gauss-Legendre panels in ``tau = tan(theta / 2)`` between the
-breakpoints otherwise), written as one pass per pair so that a model costs a few array
-allocations instead of a few hundred small array operations. ``Phi(x)`` is
-``erfc(-x / sqrt 2) / 2``.
+rule for smooth pairs (8 nodes for the smoothest), 16-node Gauss-Legendre panels in
+``tau = tan(theta / 2)`` between the breakpoints otherwise), written as one pass per pair so that
+a model costs a few array allocations instead of a few hundred small array operations.
+``Phi(x)`` is ``erfc(-x / sqrt 2) / 2``.
 
 Compiled with Numba on first use (:mod:`modeling._jit`); importing this module does not import
 Numba.
@@ -25,7 +25,8 @@ _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
 K_SIGMA = 8.5  # integration window, in standard deviations of the minor axis (tail < 1e-15)
 K_SCREEN_BATCH = 4.5  # answer 0 or 1 beyond this many sigmas (error < exp(-10.1) < 4.1e-5)
 GH_MAX_REACH = 0.95  # smooth pairs: |m_u| + K_SIGMA s_u <= this fraction of the width
-GH_MAX_SLOPE = 1.0  # ... and s_u |u| / (h s_v) <= this over the window
+GH_MAX_SLOPE = 1.0  # ... and s_u |u| / (h s_v) <= this over the window: 12 nodes (error < 1e-7)
+GH_FEW_SLOPE = 0.25  # up to this slope 8 nodes are enough (error < 1e-12)
 
 
 @compiled_helper
@@ -80,13 +81,22 @@ def _inner(h: float, m_v: float, s_v: float) -> float:
 
 
 @compiled_helper
-def smooth(m_u: float, s_u: float, s_v: float, w: float) -> bool:
-    """Whether the Gauss-Hermite rule is exact (to 1e-9) for a pair: the outer window
-    ``m_u +- K_SIGMA s_u`` lies well inside ``(-w, w)`` and the inner term changes slowly across
-    it (its argument moves by at most ``GH_MAX_SLOPE`` per outer standard deviation)."""
+def gh_slope(m_u: float, s_u: float, s_v: float, w: float) -> float:
+    """How far the inner term's argument moves per outer standard deviation across the outer
+    window ``m_u +- K_SIGMA s_u`` (``s_u |u| / (h s_v)`` at its widest), or ``inf`` where that
+    window does not lie well inside ``(-w, w)`` (within ``GH_MAX_REACH w``)."""
     reach = abs(m_u) + K_SIGMA * s_u
-    h_min = math.sqrt(max(w * w - reach * reach, 0.0))
-    return reach <= GH_MAX_REACH * w and s_u * reach <= GH_MAX_SLOPE * h_min * s_v
+    if reach > GH_MAX_REACH * w:
+        return math.inf
+    denom = math.sqrt(max(w * w - reach * reach, 0.0)) * s_v
+    return s_u * reach / denom if denom > 0.0 else math.inf
+
+
+@compiled_helper
+def smooth(m_u: float, s_u: float, s_v: float, w: float) -> bool:
+    """Whether a pair takes the Gauss-Hermite rule: its slope (:func:`gh_slope`) is at most
+    ``GH_MAX_SLOPE``."""
+    return gh_slope(m_u, s_u, s_v, w) <= GH_MAX_SLOPE
 
 
 @compiled_helper
@@ -100,14 +110,17 @@ def p_inside(
     w: float,
     gh_x: np.ndarray,
     gh_w: np.ndarray,
+    gh_few_x: np.ndarray,
+    gh_few_w: np.ndarray,
     gl_x: np.ndarray,
     gl_w: np.ndarray,
     bps: np.ndarray,
 ) -> float:
     """``P(||d|| <= w)`` for ``d ~ N((mx, my), [[sxx, sxy], [syx, syy]])``, ``w > 0``.
 
-    ``gh_*``: Gauss-Hermite nodes and weights (weights summing to 1); ``gl_*``: Gauss-Legendre
-    nodes and weights on [-1, 1]; ``bps``: scratch space of 7 floats.
+    ``gh_*``: Gauss-Hermite nodes and weights (weights summing to 1), ``gh_few_*`` a shorter
+    such rule for the smoothest pairs; ``gl_*``: Gauss-Legendre nodes and weights on [-1, 1];
+    ``bps``: scratch space of 7 floats.
     """
     # Eigen frame: u along the minor axis, v along the major one.
     half_tr = 0.5 * (sxx + syy)
@@ -134,12 +147,14 @@ def p_inside(
         if dist - w > k * s_e:
             return 0.0
     abs_mv = abs(m_v)
-    if smooth(m_u, s_u, s_v, w):
-        # Smooth: Gauss-Hermite in u.
+    slope = gh_slope(m_u, s_u, s_v, w)
+    if slope <= GH_MAX_SLOPE:
+        # Smooth: Gauss-Hermite in u (the shorter rule where the inner term is flatter).
+        nodes, weights = (gh_few_x, gh_few_w) if slope <= GH_FEW_SLOPE else (gh_x, gh_w)
         total = 0.0
-        for q in range(gh_x.shape[0]):
-            u = m_u + s_u * gh_x[q]
-            total += gh_w[q] * _inner(math.sqrt(w * w - u * u), abs_mv, s_v)
+        for q in range(nodes.shape[0]):
+            u = m_u + s_u * nodes[q]
+            total += weights[q] * _inner(math.sqrt(w * w - u * u), abs_mv, s_v)
         return min(max(total, 0.0), 1.0)
     # Gauss-Legendre panels in tau = tan(theta / 2), u = w sin(theta), between the breakpoints:
     # the window's ends, the steps of the inner term, the peak and the peak -+ 2 s_u.
@@ -193,6 +208,8 @@ def p_inside_batch(
     w: np.ndarray,
     gh_x: np.ndarray,
     gh_w: np.ndarray,
+    gh_few_x: np.ndarray,
+    gh_few_w: np.ndarray,
     gl_x: np.ndarray,
     gl_w: np.ndarray,
 ) -> np.ndarray:
@@ -203,7 +220,7 @@ def p_inside_batch(
     for k in range(m):
         out[k] = p_inside(
             mu[k, 0], mu[k, 1], S[k, 0, 0], S[k, 0, 1], S[k, 1, 0], S[k, 1, 1], w[k],
-            gh_x, gh_w, gl_x, gl_w, bps,
+            gh_x, gh_w, gh_few_x, gh_few_w, gl_x, gl_w, bps,
         )  # fmt: skip
     return out
 
@@ -268,6 +285,8 @@ def relation_rows(
     width: float,
     gh_x: np.ndarray,
     gh_w: np.ndarray,
+    gh_few_x: np.ndarray,
+    gh_few_w: np.ndarray,
     gl_x: np.ndarray,
     gl_w: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -305,7 +324,7 @@ def relation_rows(
                 dx, dy,
                 ci[k, 0, 0] + cj[k, 0, 0], ci[k, 0, 1] + cj[k, 0, 1],
                 ci[k, 1, 0] + cj[k, 1, 0], ci[k, 1, 1] + cj[k, 1, 1],
-                width, gh_x, gh_w, gl_x, gl_w, bps,
+                width, gh_x, gh_w, gh_few_x, gh_few_w, gl_x, gl_w, bps,
             )  # fmt: skip
         else:
             p[k] = 1.0

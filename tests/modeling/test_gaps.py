@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from modeling._gap_kernel import GH_FEW_SLOPE, gh_slope
 from modeling._gap_kernel import smooth as is_smooth
 from modeling.gaps import (
     Relation,
@@ -124,6 +125,10 @@ def test_batch_rules_agree_with_adaptive_quadrature_on_stereo_like_pairs() -> No
     uncertain = (scalar > 1e-3) & (scalar < 1 - 1e-3)
     assert np.sum(smooth & uncertain) > 100 and np.sum(~smooth & uncertain) > 50
     assert np.max(np.abs(batch - scalar)[smooth]) < 1e-6
+    # The flattest smooth pairs take the 8-node rule: as exact as the adaptive reference.
+    few = np.array([gh_slope(*x) <= GH_FEW_SLOPE for x in zip(m_u, s_u, s_v, w, strict=True)])
+    assert np.sum(few & uncertain) > 50
+    assert np.max(np.abs(batch - scalar)[few]) < 1e-9
     assert np.max(np.abs(batch - scalar)) < 1e-4
 
 
