@@ -81,6 +81,63 @@ def _inner(h: float, m_v: float, s_v: float) -> float:
 
 
 @compiled_helper
+def principal_axes(sxx: float, sxy: float, syy: float) -> tuple[float, float, float, float]:
+    """Eigen-decomposition of ``[[sxx, sxy], [sxy, syy]]``: the major and minor variances
+    (the minor one at least 0) and ``(cos, sin)`` of the major axis's direction."""
+    half_tr = 0.5 * (sxx + syy)
+    r = math.hypot(0.5 * (sxx - syy), sxy)
+    phi = 0.5 * math.atan2(2.0 * sxy, sxx - syy)  # direction of the major axis
+    return half_tr + r, max(half_tr - r, 0.0), math.cos(phi), math.sin(phi)
+
+
+@compiled_helper
+def eigen_frame(
+    mx: float, my: float, sxx: float, sxy: float, syy: float, w: float
+) -> tuple[float, float, float, float]:
+    """Mean and standard deviation of ``d ~ N((mx, my), S)`` along the minor (u) and major (v)
+    axes of ``S``: ``(m_u, s_u, m_v, s_v)``; the deviations are floored at ``1e-9`` of the
+    problem's scale (``w + |mu| + s_v``)."""
+    l_major, l_minor, c, s = principal_axes(sxx, sxy, syy)
+    floor = 1e-9 * (w + math.hypot(mx, my) + math.sqrt(l_major)) + 1e-300
+    return (
+        -s * mx + c * my,
+        max(math.sqrt(l_minor), floor),
+        c * mx + s * my,
+        max(math.sqrt(l_major), floor),
+    )
+
+
+@compiled_helper
+def breakpoints(m_u: float, s_u: float, m_v: float, w: float, bps: np.ndarray) -> bool:
+    """The seven breakpoints in ``theta`` (``u = w sin(theta)``) of the integration window, sorted
+    into ``bps``: the window's ends (``m_u +- K_SIGMA s_u`` within ``(-w, w)``), the steps of the
+    inner term (``w cos(theta) = |m_v|``), the outer density's peak and the peak -+ 2 ``s_u``
+    (clipped to the window). False if the window is empty."""
+    lo = max(-w, m_u - K_SIGMA * s_u)
+    hi = min(w, m_u + K_SIGMA * s_u)
+    if not hi > lo:
+        return False
+    t_lo = math.asin(min(max(lo / w, -1.0), 1.0))
+    t_hi = math.asin(min(max(hi / w, -1.0), 1.0))
+    step = math.acos(min(max(abs(m_v) / w, 0.0), 1.0))
+    bps[0] = t_lo
+    bps[1] = min(max(-step, t_lo), t_hi)
+    bps[2] = min(max(step, t_lo), t_hi)
+    bps[3] = min(max(math.asin(min(max(m_u / w, -1.0), 1.0)), t_lo), t_hi)
+    bps[4] = min(max(math.asin(min(max((m_u - 2.0 * s_u) / w, -1.0), 1.0)), t_lo), t_hi)
+    bps[5] = min(max(math.asin(min(max((m_u + 2.0 * s_u) / w, -1.0), 1.0)), t_lo), t_hi)
+    bps[6] = t_hi
+    for a in range(1, 7):  # insertion sort of the seven breakpoints
+        x = bps[a]
+        b = a - 1
+        while b >= 0 and bps[b] > x:
+            bps[b + 1] = bps[b]
+            b -= 1
+        bps[b + 1] = x
+    return True
+
+
+@compiled_helper
 def gh_slope(m_u: float, s_u: float, s_v: float, w: float) -> float:
     """How far the inner term's argument moves per outer standard deviation across the outer
     window ``m_u +- K_SIGMA s_u`` (``s_u |u| / (h s_v)`` at its widest), or ``inf`` where that
@@ -93,13 +150,6 @@ def gh_slope(m_u: float, s_u: float, s_v: float, w: float) -> float:
 
 
 @compiled_helper
-def smooth(m_u: float, s_u: float, s_v: float, w: float) -> bool:
-    """Whether a pair takes the Gauss-Hermite rule: its slope (:func:`gh_slope`) is at most
-    ``GH_MAX_SLOPE``."""
-    return gh_slope(m_u, s_u, s_v, w) <= GH_MAX_SLOPE
-
-
-@compiled_helper
 def p_inside(
     mx: float,
     my: float,
@@ -108,33 +158,18 @@ def p_inside(
     syx: float,
     syy: float,
     w: float,
-    gh_x: np.ndarray,
-    gh_w: np.ndarray,
-    gh_few_x: np.ndarray,
-    gh_few_w: np.ndarray,
-    gl_x: np.ndarray,
-    gl_w: np.ndarray,
+    rules: tuple[np.ndarray, ...],
     bps: np.ndarray,
 ) -> float:
     """``P(||d|| <= w)`` for ``d ~ N((mx, my), [[sxx, sxy], [syx, syy]])``, ``w > 0``.
 
-    ``gh_*``: Gauss-Hermite nodes and weights (weights summing to 1), ``gh_few_*`` a shorter
-    such rule for the smoothest pairs; ``gl_*``: Gauss-Legendre nodes and weights on [-1, 1];
+    ``rules``: :func:`modeling.gaps.quadrature_rules` (Gauss-Hermite nodes and weights, the
+    shorter such rule for the flattest pairs, Gauss-Legendre nodes and weights on [-1, 1]);
     ``bps``: scratch space of 7 floats.
     """
-    # Eigen frame: u along the minor axis, v along the major one.
-    half_tr = 0.5 * (sxx + syy)
-    r = math.hypot(0.5 * (sxx - syy), sxy)
-    l_major = half_tr + r
-    l_minor = max(half_tr - r, 0.0)
-    phi = 0.5 * math.atan2(2.0 * sxy, sxx - syy)
-    c, s = math.cos(phi), math.sin(phi)
-    m_v = c * mx + s * my
-    m_u = -s * mx + c * my
+    gh_x, gh_w, gh_few_x, gh_few_w, gl_x, gl_w = rules
+    m_u, s_u, m_v, s_v = eigen_frame(mx, my, sxx, sxy, syy, w)
     dist = math.hypot(mx, my)
-    floor = 1e-9 * (w + dist + math.sqrt(l_major)) + 1e-300
-    s_v = max(math.sqrt(l_major), floor)
-    s_u = max(math.sqrt(l_minor), floor)
     # Screening by tail bounds (see modeling.gaps._p_inside_batch).
     k = K_SCREEN_BATCH
     if w - dist > k * s_v:
@@ -156,29 +191,9 @@ def p_inside(
             u = m_u + s_u * nodes[q]
             total += weights[q] * _inner(math.sqrt(w * w - u * u), abs_mv, s_v)
         return min(max(total, 0.0), 1.0)
-    # Gauss-Legendre panels in tau = tan(theta / 2), u = w sin(theta), between the breakpoints:
-    # the window's ends, the steps of the inner term, the peak and the peak -+ 2 s_u.
-    lo = max(-w, m_u - K_SIGMA * s_u)
-    hi = min(w, m_u + K_SIGMA * s_u)
-    if not hi > lo:
+    # Gauss-Legendre panels in tau = tan(theta / 2), u = w sin(theta), between the breakpoints.
+    if not breakpoints(m_u, s_u, m_v, w, bps):
         return 0.0
-    t_lo = math.asin(min(max(lo / w, -1.0), 1.0))
-    t_hi = math.asin(min(max(hi / w, -1.0), 1.0))
-    step = math.acos(min(max(abs_mv / w, 0.0), 1.0))
-    bps[0] = t_lo
-    bps[1] = min(max(-step, t_lo), t_hi)
-    bps[2] = min(max(step, t_lo), t_hi)
-    bps[3] = min(max(math.asin(min(max(m_u / w, -1.0), 1.0)), t_lo), t_hi)
-    bps[4] = min(max(math.asin(min(max((m_u - 2.0 * s_u) / w, -1.0), 1.0)), t_lo), t_hi)
-    bps[5] = min(max(math.asin(min(max((m_u + 2.0 * s_u) / w, -1.0), 1.0)), t_lo), t_hi)
-    bps[6] = t_hi
-    for a_ in range(1, 7):  # insertion sort of the seven breakpoints
-        x = bps[a_]
-        b_ = a_ - 1
-        while b_ >= 0 and bps[b_] > x:
-            bps[b_ + 1] = bps[b_]
-            b_ -= 1
-        bps[b_ + 1] = x
     norm = 2.0 * _INV_SQRT_2PI / s_u
     total = 0.0
     p0 = math.tan(0.5 * bps[0])
@@ -206,21 +221,16 @@ def p_inside_batch(
     mu: np.ndarray,
     S: np.ndarray,
     w: np.ndarray,
-    gh_x: np.ndarray,
-    gh_w: np.ndarray,
-    gh_few_x: np.ndarray,
-    gh_few_w: np.ndarray,
-    gl_x: np.ndarray,
-    gl_w: np.ndarray,
+    rules: tuple[np.ndarray, ...],
 ) -> np.ndarray:
-    """(m,) ``P(||d|| <= w)`` for ``d ~ N(mu, S)``: mu (m, 2), S (m, 2, 2), w (m,) > 0."""
+    """(m,) ``P(||d|| <= w)`` for ``d ~ N(mu, S)``: mu (m, 2), S (m, 2, 2), w (m,) > 0;
+    ``rules`` as :func:`p_inside`."""
     m = mu.shape[0]
     out = np.empty(m)
     bps = np.empty(7)
     for k in range(m):
         out[k] = p_inside(
-            mu[k, 0], mu[k, 1], S[k, 0, 0], S[k, 0, 1], S[k, 1, 0], S[k, 1, 1], w[k],
-            gh_x, gh_w, gh_few_x, gh_few_w, gl_x, gl_w, bps,
+            mu[k, 0], mu[k, 1], S[k, 0, 0], S[k, 0, 1], S[k, 1, 0], S[k, 1, 1], w[k], rules, bps
         )  # fmt: skip
     return out
 
@@ -283,12 +293,7 @@ def relation_rows(
     s: np.ndarray,
     t: np.ndarray,
     width: float,
-    gh_x: np.ndarray,
-    gh_w: np.ndarray,
-    gh_few_x: np.ndarray,
-    gh_few_w: np.ndarray,
-    gl_x: np.ndarray,
-    gl_w: np.ndarray,
+    rules: tuple[np.ndarray, ...],
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Closest points of pairs ``(i, j)`` at parameters ``(s, t)``, their covariances
     (interpolated from the endpoints': ``(1 - s)^2 C_0 + s^2 C_1``), distance and
@@ -324,7 +329,7 @@ def relation_rows(
                 dx, dy,
                 ci[k, 0, 0] + cj[k, 0, 0], ci[k, 0, 1] + cj[k, 0, 1],
                 ci[k, 1, 0] + cj[k, 1, 0], ci[k, 1, 1] + cj[k, 1, 1],
-                width, gh_x, gh_w, gh_few_x, gh_few_w, gl_x, gl_w, bps,
+                width, rules, bps,
             )  # fmt: skip
         else:
             p[k] = 1.0
@@ -335,31 +340,22 @@ def relation_rows(
 def width_moments(
     mu: np.ndarray,
     S: np.ndarray,
-    z1: np.ndarray,
-    z2: np.ndarray,
-    weights: np.ndarray,
-    z1_thin: np.ndarray,
-    z2_thin: np.ndarray,
-    weights_thin: np.ndarray,
+    grid: tuple[np.ndarray, np.ndarray, np.ndarray],
+    grid_thin: tuple[np.ndarray, np.ndarray, np.ndarray],
 ) -> tuple[np.ndarray, np.ndarray]:
     """Mean and standard deviation of ``||d||`` for ``d ~ N(mu, S)`` (see
     :func:`modeling.gaps.gap_width_moments`): a tensor Gauss-Hermite rule in the eigenbasis of
-    ``S`` (nodes ``z1`` along the major axis, ``z2`` along the minor one, ``weights`` summing to
-    1), the ``*_thin`` rule where the minor standard deviation is below a tenth of the major one;
-    the second moment exact."""
+    ``S`` (``grid``: nodes along the major axis, nodes along the minor one, weights summing to 1),
+    ``grid_thin`` where the minor standard deviation is below a tenth of the major one; the second
+    moment exact."""
     m = mu.shape[0]
     mean = np.empty(m)
     std = np.empty(m)
     for k in range(m):
-        a, b, d = S[k, 0, 0], S[k, 0, 1], S[k, 1, 1]
-        half_tr = 0.5 * (a + d)
-        r = math.hypot(0.5 * (a - d), b)
-        sd_major = math.sqrt(half_tr + r)
-        sd_minor = math.sqrt(max(half_tr - r, 0.0))
-        phi = 0.5 * math.atan2(2.0 * b, a - d)  # direction of the major axis
-        c, s = math.cos(phi), math.sin(phi)
-        thin = sd_minor < 0.1 * sd_major
-        n1, n2, w = (z1_thin, z2_thin, weights_thin) if thin else (z1, z2, weights)
+        a, d = S[k, 0, 0], S[k, 1, 1]
+        l_major, l_minor, c, s = principal_axes(a, S[k, 0, 1], d)
+        sd_major, sd_minor = math.sqrt(l_major), math.sqrt(l_minor)
+        n1, n2, w = grid_thin if sd_minor < 0.1 * sd_major else grid
         total = 0.0
         for q in range(w.shape[0]):
             # Node mu + z1 sd_major e_major + z2 sd_minor e_minor; e_major = (c, s),

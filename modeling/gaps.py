@@ -53,14 +53,14 @@ __all__ = [
     "gap_width_moments",
 ]
 
-_K_SIGMA = _gap_kernel.K_SIGMA  # integration window, in minor-axis sigmas (tail < 1e-15)
 _K_SCREEN_EXACT = 8.5  # scalar function: answer 0 or 1 beyond this (error < 1e-15)
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(16)
 _GH_NODES, _GH_WEIGHTS = np.polynomial.hermite_e.hermegauss(12)  # nodes within +-5.5
 _GH_WEIGHTS = _GH_WEIGHTS / _GH_WEIGHTS.sum()
 _GH_FEW_NODES, _GH_FEW_WEIGHTS = np.polynomial.hermite_e.hermegauss(8)  # the flattest pairs
 _GH_FEW_WEIGHTS = _GH_FEW_WEIGHTS / _GH_FEW_WEIGHTS.sum()
-for _rule in (_GL_NODES, _GL_WEIGHTS, _GH_NODES, _GH_WEIGHTS, _GH_FEW_NODES, _GH_FEW_WEIGHTS):
+_RULES = (_GH_NODES, _GH_WEIGHTS, _GH_FEW_NODES, _GH_FEW_WEIGHTS, _GL_NODES, _GL_WEIGHTS)
+for _rule in _RULES:
     _rule.setflags(write=False)
 
 
@@ -111,61 +111,6 @@ def classify_gaps(p_passable: ArrayLike, eps: float) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------------- internals
-def _eigen_frame(
-    mu: FloatArray, S: FloatArray, w: FloatArray
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Mean and standard deviation along the minor (u) and major (v) axes of each ``S``.
-
-    Args:
-        mu: (m, 2) mean differences.
-        S: (m, 2, 2) covariances of the difference (symmetric positive semi-definite).
-        w: (m,) widths (for the floor on the standard deviations).
-
-    Returns:
-        ``(m_u, s_u, m_v, s_v)``, each (m,).
-    """
-    a, b, d = S[:, 0, 0], S[:, 0, 1], S[:, 1, 1]
-    half_tr = 0.5 * (a + d)
-    r = np.hypot(0.5 * (a - d), b)
-    l_major = half_tr + r
-    l_minor = np.maximum(half_tr - r, 0.0)
-    phi = 0.5 * np.arctan2(2.0 * b, a - d)  # direction of the major axis
-    c, s = np.cos(phi), np.sin(phi)
-    m_v = c * mu[:, 0] + s * mu[:, 1]
-    m_u = -s * mu[:, 0] + c * mu[:, 1]
-    scale = w + np.hypot(mu[:, 0], mu[:, 1]) + np.sqrt(l_major)
-    floor = 1e-9 * scale + 1e-300
-    s_v = np.maximum(np.sqrt(l_major), floor)
-    s_u = np.maximum(np.sqrt(l_minor), floor)
-    return m_u, s_u, m_v, s_v
-
-
-def _windows(
-    m_u: FloatArray, s_u: FloatArray, m_v: FloatArray, s_v: FloatArray, w: FloatArray
-) -> tuple[FloatArray, FloatArray, np.ndarray]:
-    """Sorted breakpoints (m, 7) in theta and a mask of pairs with a non-empty window."""
-    lo = np.maximum(-w, m_u - _K_SIGMA * s_u)
-    hi = np.minimum(w, m_u + _K_SIGMA * s_u)
-    valid = hi > lo
-    # ``x.clip`` is the ufunc of ``np.clip`` without its Python-level dispatch (small arrays).
-    t_lo = np.arcsin((lo / w).clip(-1.0, 1.0))
-    t_hi = np.arcsin((hi / w).clip(-1.0, 1.0))
-    step = np.arccos((np.abs(m_v) / w).clip(0.0, 1.0))
-    # Columns: t_lo, then -step, step, the peak and the peak -+ 2 s_u (clipped to the window),
-    # then t_hi.
-    bps = np.empty((m_u.shape[0], 7))
-    bps[:, 0] = t_lo
-    bps[:, 1] = -step
-    bps[:, 2] = step
-    bps[:, 3] = np.arcsin((m_u / w).clip(-1.0, 1.0))
-    bps[:, 4] = np.arcsin(((m_u - 2.0 * s_u) / w).clip(-1.0, 1.0))
-    bps[:, 5] = np.arcsin(((m_u + 2.0 * s_u) / w).clip(-1.0, 1.0))
-    bps[:, 6] = t_hi
-    bps[:, 1:6] = bps[:, 1:6].clip(t_lo[:, None], t_hi[:, None])
-    bps.sort(axis=1)
-    return bps, t_lo, valid
-
-
 def _integrand(
     theta: FloatArray,
     m_u: FloatArray,
@@ -195,8 +140,8 @@ def _p_inside_batch(mu: FloatArray, S: FloatArray, w: FloatArray) -> FloatArray:
     ``m_u +- 8.5 s_u`` within 0.95 w, and the inner term's argument moving by at most one per
     outer standard deviation) take the 12-node Gauss-Hermite rule in ``u`` (error below 1e-7; the
     8-node rule where it moves by at most a quarter, error below 1e-12); the
-    others 16-node Gauss-Legendre panels between the breakpoints of :func:`_windows`, in
-    ``tau = tan(theta / 2)``.
+    others 16-node Gauss-Legendre panels between the breakpoints of
+    :func:`modeling._gap_kernel.breakpoints`, in ``tau = tan(theta / 2)``.
     """
     if mu.shape[0] == 0:
         return np.zeros(0)
@@ -204,30 +149,32 @@ def _p_inside_batch(mu: FloatArray, S: FloatArray, w: FloatArray) -> FloatArray:
         np.ascontiguousarray(mu, dtype=np.float64),
         np.ascontiguousarray(S, dtype=np.float64),
         np.ascontiguousarray(w, dtype=np.float64),
-        *quadrature_rules(),
+        quadrature_rules(),
     )
 
 
 def quadrature_rules() -> tuple[FloatArray, ...]:
-    """The batch rules: 12- and 8-node Gauss-Hermite nodes and weights (weights summing to 1),
-    16-node Gauss-Legendre nodes and weights on [-1, 1]."""
-    return _GH_NODES, _GH_WEIGHTS, _GH_FEW_NODES, _GH_FEW_WEIGHTS, _GL_NODES, _GL_WEIGHTS
+    """The batch rules, one tuple for the compiled loops: 12- and 8-node Gauss-Hermite nodes and
+    weights (weights summing to 1), 16-node Gauss-Legendre nodes and weights on [-1, 1]."""
+    return _RULES
 
 
 def _p_inside_scalar(mu: FloatArray, S: FloatArray, w: float) -> float:
     """P(||d|| <= w) for one pair by adaptive quadrature (exact to ~1e-10)."""
-    wa = np.array([w])
-    dist = float(np.hypot(mu[0], mu[1]))
-    m_u, s_u, m_v, s_v = (float(x[0]) for x in _eigen_frame(mu[None], S[None], wa))
+    mx, my = float(mu[0]), float(mu[1])
+    dist = math.hypot(mx, my)
+    m_u, s_u, m_v, s_v = _gap_kernel.eigen_frame(
+        mx, my, float(S[0, 0]), float(S[0, 1]), float(S[1, 1]), w
+    )
     if dist - w > _K_SCREEN_EXACT * s_v:
         return 0.0
     if w - dist > _K_SCREEN_EXACT * s_v:
         return 1.0
-    bps, _, valid = _windows(np.array([m_u]), np.array([s_u]), np.array([m_v]), np.array([s_v]), wa)
-    if not valid[0]:
+    bps = np.empty(7)
+    if not _gap_kernel.breakpoints(m_u, s_u, m_v, w, bps):
         return 0.0
     # Breakpoints closer than 1e-12 rad make panels too thin for quad (it warns): merge them.
-    pts = np.unique(bps[0])
+    pts = np.unique(bps)
     keep = np.r_[True, np.diff(pts) > 1e-12]
     keep[-1] = True
     pts = pts[keep]
@@ -384,7 +331,7 @@ def gap_width_moments(
     mean, std = _gap_kernel.width_moments(
         np.ascontiguousarray(mu),
         np.ascontiguousarray(S),
-        *_hermite_grid(order, order),
-        *_hermite_grid(order, max(4, order // 3)),
+        _hermite_grid(order, order),
+        _hermite_grid(order, max(4, order // 3)),
     )
     return mean, std

@@ -201,7 +201,7 @@ def segment_relations(
         Ei, Ej = endpoints[i], endpoints[j]
         s, t = closest_points(Ei[:, 0], Ei[:, 1], Ej[:, 0], Ej[:, 1])
     mi, mj, ci, cj, dist, p = _gap_kernel.relation_rows(
-        endpoints, cov, i, j, s, t, float(width_m), *quadrature_rules()
+        endpoints, cov, i, j, s, t, float(width_m), quadrature_rules()
     )
     return SegmentRelations(
         i=i,

@@ -7,11 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from modeling._gap_kernel import GH_FEW_SLOPE, gh_slope
-from modeling._gap_kernel import smooth as is_smooth
+from modeling._gap_kernel import GH_FEW_SLOPE, GH_MAX_SLOPE, eigen_frame, gh_slope
 from modeling.gaps import (
     Relation,
-    _eigen_frame,
     classify_gap,
     classify_gaps,
     gap_passable_probability,
@@ -116,8 +114,10 @@ def test_batch_rules_agree_with_adaptive_quadrature_on_stereo_like_pairs() -> No
     mu = np.array([b - a for a, _, b, _, _ in cases])
     S = np.array([ca + cb for _, ca, _, cb, _ in cases])
     w = np.array([c[4] for c in cases])
-    m_u, s_u, _, s_v = _eigen_frame(mu, S, w)
-    smooth = np.array([is_smooth(*x) for x in zip(m_u, s_u, s_v, w, strict=True)])
+    frames = [eigen_frame(*mu[k], S[k, 0, 0], S[k, 0, 1], S[k, 1, 1], w[k]) for k in range(600)]
+    m_u, s_u, _, s_v = (np.array(x) for x in zip(*frames, strict=True))
+    slope = np.array([gh_slope(*x) for x in zip(m_u, s_u, s_v, w, strict=True)])
+    smooth = slope <= GH_MAX_SLOPE
     batch = gap_passable_probability_batch(np.zeros_like(mu), S / 2, mu, S / 2, w)
     scalar = np.array(
         [gap_passable_probability([0, 0], S[k] / 2, mu[k], S[k] / 2, w[k]) for k in range(600)]
@@ -126,7 +126,7 @@ def test_batch_rules_agree_with_adaptive_quadrature_on_stereo_like_pairs() -> No
     assert np.sum(smooth & uncertain) > 100 and np.sum(~smooth & uncertain) > 50
     assert np.max(np.abs(batch - scalar)[smooth]) < 1e-6
     # The flattest smooth pairs take the 8-node rule: as exact as the adaptive reference.
-    few = np.array([gh_slope(*x) <= GH_FEW_SLOPE for x in zip(m_u, s_u, s_v, w, strict=True)])
+    few = slope <= GH_FEW_SLOPE
     assert np.sum(few & uncertain) > 50
     assert np.max(np.abs(batch - scalar)[few]) < 1e-9
     assert np.max(np.abs(batch - scalar)) < 1e-4
