@@ -25,7 +25,14 @@ from stereo_nav_env.config import EnvConfig
 from stereo_nav_env.diagnostics import GroundTruth, model_diagnostics
 from stereo_nav_env.geodesic import GeodesicField
 from stereo_nav_env.observation import goal_features, observation_space, pack_model
-from stereo_nav_env.perception import Stopwatch, add_pixel_noise, draw_pixel_noise, perceive
+from stereo_nav_env.perception import (
+    Stopwatch,
+    add_pixel_noise,
+    draw_noise_levels,
+    noise_of_levels,
+    noisy_grey,
+    perceive,
+)
 from stereo_nav_env.render import StereoRenderer
 from stereo_nav_env.rewards import reward_components
 from stereo_nav_env.scenes import Scene, load_scenario
@@ -199,7 +206,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self.model: EnvironmentModel | None = None
         self.last_timings_ms: dict[str, float] = {}
         self._clean_pair: tuple[UInt8Image, UInt8Image] | None = None
-        self._noise: NDArray[np.int16] | None = None
+        self._noise_levels: NDArray[np.uint16] | None = None
         self._pair: tuple[UInt8Image, UInt8Image] | None = None
         self._geodesic: GeodesicField | None = None
         self._truth: GroundTruth | None = None
@@ -251,9 +258,10 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         if self._pair is None:
             assert self._clean_pair is not None
             left, right = self._clean_pair
-            if self._noise is not None:
-                left = add_pixel_noise(left, self._noise[0])
-                right = add_pixel_noise(right, self._noise[1])
+            if self._noise_levels is not None:
+                noise = noise_of_levels(self._noise_levels, self.config.pixel_noise_std)
+                left = add_pixel_noise(left, noise[0])
+                right = add_pixel_noise(right, noise[1])
             self._pair = (left, right)
         return self._pair
 
@@ -270,17 +278,24 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         """Render the pair, run the pipeline, pack the observation (``self.model`` updated)."""
         cfg = self.config
         rig = self.rig
-        noise = draw_pixel_noise(self.np_random, rig.height_px, rig.width_px, cfg.pixel_noise_std)
+        sigma = cfg.pixel_noise_std
+        levels = None
+        if sigma > 0:
+            levels = draw_noise_levels(self.np_random, rig.height_px, rig.width_px)
         watch.lap("noise")
         head = self.head_pose
         self._clean_pair = self._get_renderer().render_stereo(head)
         watch.lap("render")
         # the pipeline sees the noisy grey images; the noisy RGB pair (the same noise on every
         # channel) is made only when someone asks for it (images observation, render_stereo)
-        self._noise, self._pair = noise, None
-        grey = [to_gray(image) for image in self._clean_pair]
-        if noise is not None:
-            grey = [add_pixel_noise(g, n) for g, n in zip(grey, noise, strict=True)]
+        self._noise_levels, self._pair = levels, None
+        if levels is None:
+            grey = [to_gray(image) for image in self._clean_pair]
+        else:
+            grey = [
+                noisy_grey(image, lv, sigma)
+                for image, lv in zip(self._clean_pair, levels, strict=True)
+            ]
         watch.lap("noise")
         self.model = perceive(
             grey[0],

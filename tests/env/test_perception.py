@@ -18,7 +18,10 @@ from stereo_nav_env.perception import (
     ComparableModel,
     Stopwatch,
     add_pixel_noise,
+    draw_noise_levels,
     draw_pixel_noise,
+    noise_of_levels,
+    noisy_grey,
     perceive,
     structurally_equal,
 )
@@ -53,6 +56,52 @@ def test_adding_noise_saturates_and_keeps_the_grey_level_noise() -> None:
     grey_of_noisy = cv2.cvtColor(add_pixel_noise(rgb, noise), cv2.COLOR_RGB2GRAY)
     noisy_grey = add_pixel_noise(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY), noise)
     assert np.array_equal(grey_of_noisy, noisy_grey)
+
+
+@pytest.mark.parametrize(
+    ("height", "width", "pending_half"),
+    [(240, 320, False), (240, 320, True), (7, 9, False), (5, 6, False)],
+)
+def test_noise_levels_are_the_generators_own_uint16_draws(
+    height: int, width: int, pending_half: bool
+) -> None:
+    # the fast path (raw 64-bit outputs) and the fallbacks (a 32-bit half pending, a count not a
+    # multiple of 4) give the values and the generator state of rng.integers itself
+    fast, slow = np.random.default_rng(7), np.random.default_rng(7)
+    if pending_half:
+        for rng in (fast, slow):
+            rng.integers(0, 10, dtype=np.uint32)  # leaves one 32-bit half buffered
+        assert fast.bit_generator.state["has_uint32"] == 1
+    levels = draw_noise_levels(fast, height, width)
+    want = slow.integers(0, 1 << 16, (2, height, width), dtype=np.uint16)
+    assert levels.dtype == np.uint16 and np.array_equal(levels, want)
+    for _ in range(2):  # and the generators go on alike
+        assert np.array_equal(draw_noise_levels(fast, 4, 6), draw_noise_levels(slow, 4, 6))
+        assert fast.random() == slow.random()
+        assert fast.integers(0, 1000, 3).tolist() == slow.integers(0, 1000, 3).tolist()
+
+
+def test_noisy_grey_is_the_grey_image_plus_the_noise_saturated() -> None:
+    rng = np.random.default_rng(3)
+    rgb = rng.integers(0, 256, (60, 80, 3), dtype=np.uint8)
+    rgb[:10] = 0  # saturates below
+    rgb[10:20] = 255  # and above
+    levels = draw_noise_levels(rng, 60, 80)[0]
+    for sigma in (0.5, 2.0, 40.0):
+        want = add_pixel_noise(
+            cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY), noise_of_levels(levels, sigma)
+        )
+        got = noisy_grey(rgb, levels, sigma)
+        assert got.dtype == np.uint8 and np.array_equal(got, want)
+    # draw_pixel_noise is the noise of the levels drawn the same way
+    noise = draw_pixel_noise(np.random.default_rng(5), 60, 80, 2.0)
+    assert np.array_equal(
+        noise, noise_of_levels(draw_noise_levels(np.random.default_rng(5), 60, 80), 2.0)
+    )
+    with pytest.raises(ValueError, match="rgb"):
+        noisy_grey(rgb[..., 0], levels, 2.0)
+    with pytest.raises(ValueError, match="levels"):
+        noisy_grey(rgb, levels[:-1], 2.0)
 
 
 def _model(shift: float = 0.0) -> EnvironmentModel:
