@@ -990,23 +990,28 @@ def build_model(
     n_seg = len(segs)
     ends_l = [s.endpoints for s in segs]
     cov_l = [s.cov for s in segs]
-    item_segment = list(range(n_seg))
-    item_candidate: list[tuple[int, int]] = [(-1, -1)] * n_seg
     cand_item: list[list[int]] = []
-    for a, am in enumerate(amb):
-        ids = []
-        for c, cand in enumerate(am.candidates):
-            ids.append(len(ends_l))
-            ends_l.append(cand.endpoints)
-            cov_l.append(cand.cov)
-            item_segment.append(-1)
-            item_candidate.append((a, c))
-        cand_item.append(ids)
+    for am in amb:
+        cand_item.append(list(range(len(ends_l), len(ends_l) + len(am.candidates))))
+        ends_l.extend(cand.endpoints for cand in am.candidates)
+        cov_l.extend(cand.cov for cand in am.candidates)
     N = len(ends_l)
-    ends = np.asarray(ends_l, dtype=np.float64).reshape(N, 2, 2)
-    covs = np.asarray(cov_l, dtype=np.float64).reshape(N, 2, 2, 2)
-    item_seg_arr = np.asarray(item_segment, dtype=np.int64)
-    item_cand_arr = np.asarray(item_candidate, dtype=np.int64).reshape(N, 2)
+    # one concatenation of the (2, 2) and (2, 2, 2) arrays (np.asarray of a list of arrays
+    # inspects every element first, at twice the cost)
+    ends = np.concatenate(ends_l, dtype=np.float64).reshape(N, 2, 2) if N else np.zeros((0, 2, 2))
+    covs = (
+        np.concatenate(cov_l, dtype=np.float64).reshape(N, 2, 2, 2) if N else np.zeros((0, 2, 2, 2))
+    )
+    # item k < n_seg is segment k; the others are (ambiguous index, candidate index)
+    item_seg_arr = np.full(N, -1, dtype=np.int64)
+    item_seg_arr[:n_seg] = np.arange(n_seg)
+    item_cand_arr = np.full((N, 2), -1, dtype=np.int64)
+    if N > n_seg:
+        n_cands = [len(am.candidates) for am in amb]
+        item_cand_arr[n_seg:, 0] = np.repeat(np.arange(len(amb)), n_cands)
+        item_cand_arr[n_seg:, 1] = np.arange(N - n_seg) - np.repeat(
+            np.cumsum(n_cands) - n_cands, n_cands
+        )
     item_amb = item_cand_arr[:, 0]
     for arr in (item_seg_arr, item_cand_arr):
         arr.setflags(write=False)
