@@ -71,7 +71,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import numpy as np
 import shapely
 
-from modeling import _ray_kernel
+from modeling import _hull_kernel, _ray_kernel
 from modeling._validation import FloatArray, positive
 from modeling.gaps import Relation, _check_eps, gap_width_moments
 from modeling.observation import FloorObservation
@@ -381,9 +381,8 @@ def _hulls(
     Returns:
         ``n`` read-only (m, 2) arrays.
     """
-    out: list[FloatArray] = [np.zeros((0, 2))] * n
     if n == 0:
-        return out
+        return []
     counts = np.bincount(index, minlength=n)
     flat = counts <= 2  # a hull of at most two points is flat: no need for GEOS
     big = (~flat).nonzero()[0]
@@ -393,57 +392,27 @@ def _hulls(
         # Each set is a line string (much cheaper to build than a multipoint), same hull.
         hull = shapely.convex_hull(shapely.linestrings(points[sel], indices=rank[index[sel]]))
         is_poly = shapely.get_type_id(hull) == 3
-        flat[big[~is_poly]] = True
-        poly_idx = big[is_poly]
-        ring = shapely.get_exterior_ring(hull[is_poly])
-        coords = shapely.get_coordinates(ring)
-        n_coords = shapely.get_num_coordinates(ring)
-        starts = np.cumsum(n_coords) - n_coords
-        # Twice the signed area of each closed ring by the shoelace formula (the cross terms
-        # between consecutive rings are zeroed).
-        cross = coords[:-1, 0] * coords[1:, 1] - coords[1:, 0] * coords[:-1, 1]
-        cross[starts[1:] - 1] = 0.0
-        area2 = np.add.reduceat(cross, starts) if starts.shape[0] else np.zeros(0)
-        # A hull of (almost) collinear points can come back as a polygon of no area: flat.
-        span = np.abs(coords - coords[starts].repeat(n_coords, 0)).max(1, initial=0.0)
-        span = np.maximum.reduceat(span, starts) if starts.shape[0] else np.zeros(0)
-        thin = np.abs(area2) <= 1e-9 * np.maximum(span, 1e-3)
-        flat[poly_idx[thin]] = True
-        parts = _split(coords, n_coords)
-        for c, r, a2, is_thin in zip(
-            poly_idx.tolist(), parts, area2.tolist(), thin.tolist(), strict=True
-        ):
-            if not is_thin:
-                out[c] = r[:-1] if a2 > 0 else r[:0:-1]  # the ring repeats its first vertex
-    deg = flat.nonzero()[0]
-    if deg.shape[0]:
-        # A collinear set's hull is the segment between its extreme points (or a point): from
-        # the set's first point, the direction to its farthest point, then the extreme
-        # projections on that direction.
-        sel = flat[index]
-        pts = points[sel]
-        which = (np.cumsum(flat) - 1)[index[sel]]
-        first = np.searchsorted(which, np.arange(deg.shape[0]))
-        rel = pts - pts[first][which]
-        d2 = np.einsum("ij,ij->i", rel, rel)
-        far = np.lexsort((-d2, which))[first]  # farthest point of each set
-        length = np.sqrt(d2[far])
-        axis = np.where(
-            (length > 1e-12)[:, None], rel[far] / np.maximum(length, 1e-12)[:, None], [1.0, 0.0]
-        )
-        t = np.einsum("ij,ij->i", rel, axis[which])
-        a_ = pts[first] + np.minimum.reduceat(t, first)[:, None] * axis
-        b_ = pts[first] + np.maximum.reduceat(t, first)[:, None] * axis
-        grow = np.asarray(grow_m, dtype=np.float64)
-        if grow.ndim:
-            grow = grow[deg][:, None]
-        nrm = np.stack([-axis[:, 1], axis[:, 0]], axis=1) * grow
-        tang = axis * grow
-        rects = np.stack([a_ - tang - nrm, b_ + tang - nrm, b_ + tang + nrm, a_ - tang + nrm], 1)
-        rects.setflags(write=False)
-        for k, c in enumerate(deg.tolist()):
-            out[c] = rects[k]
-    return out
+        flat[big[~is_poly]] = True  # a line or a point: flat
+        poly_set = big[is_poly]
+        coords = shapely.get_coordinates(hull[is_poly])  # exterior rings (hulls have no holes)
+        n_coords = shapely.get_num_coordinates(hull[is_poly])
+    else:
+        poly_set = np.zeros(0, dtype=np.int64)
+        coords = np.zeros((0, 2))
+        n_coords = np.zeros(0, dtype=np.int64)
+    grow = np.broadcast_to(np.asarray(grow_m, dtype=np.float64), (n,))
+    vertices, offsets = _hull_kernel.finish_hulls(
+        np.ascontiguousarray(points, dtype=np.float64),
+        counts,
+        flat,
+        np.ascontiguousarray(grow),
+        poly_set.astype(np.int64),
+        coords,
+        n_coords.astype(np.int64),
+    )
+    vertices.setflags(write=False)
+    b = offsets.tolist()
+    return [vertices[b[k] : b[k + 1]] for k in range(n)]
 
 
 class _Partition:

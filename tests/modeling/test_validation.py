@@ -125,3 +125,37 @@ def test_fast_record_constructors_make_the_same_frozen_objects() -> None:
     # The field list must be the class's own (order is the caller's, checked by name).
     with pytest.raises(TypeError, match="Passage"):
         _record_maker(Passage, ("obstacles", "narrowest", "width_mean_m", "p_passable"))
+
+
+def test_outline_polygons_are_the_convex_hulls_or_the_rectangles_of_flat_sets() -> None:
+    import shapely
+
+    from modeling.model import _hulls
+
+    rng = np.random.default_rng(4)
+    spread = rng.normal(size=(7, 2))  # a proper hull
+    on_line = np.array([[0.0, 0.0], [2.0, 1.0], [1.0, 0.5], [-1.0, -0.5]])  # collinear
+    one_point = np.array([[3.0, 3.0], [3.0, 3.0]])  # coincident
+    pair = np.array([[0.0, 1.0], [0.0, 2.0]])  # two points
+    sets = [spread, on_line, one_point, pair]
+    points = np.concatenate(sets)
+    index = np.repeat(np.arange(4), [len(s) for s in sets])
+    grow = np.array([0.1, 0.1, 0.2, 0.05])
+    out = _hulls(points, index, 4, grow)
+    assert len(out) == 4 and all(not p.flags.writeable for p in out)
+    # the hull: GEOS's own, counter-clockwise, not closed
+    want = shapely.convex_hull(shapely.MultiPoint(spread))
+    got = shapely.Polygon(out[0])
+    assert got.is_valid and shapely.Polygon(out[0]).exterior.is_ccw
+    assert out[0].shape[0] == len(want.exterior.coords) - 1
+    assert got.symmetric_difference(want).area < 1e-12
+    # a collinear set: the rectangle 2 grow wide around its extreme points (-1, -0.5)..(2, 1)
+    ext = np.hypot(3.0, 1.5)
+    assert shapely.Polygon(out[1]).area == pytest.approx((ext + 0.2) * 0.2)
+    assert shapely.Polygon(out[1]).exterior.is_ccw
+    assert shapely.Polygon(out[1]).contains(shapely.LineString(on_line[[3, 1]]))
+    # coincident points: a square of side 2 grow, along x
+    np.testing.assert_allclose(out[2], [[2.8, 2.8], [3.2, 2.8], [3.2, 3.2], [2.8, 3.2]])
+    # two points: the rectangle of the segment, 0.1 wide
+    np.testing.assert_allclose(out[3], [[0.05, 0.95], [0.05, 2.05], [-0.05, 2.05], [-0.05, 0.95]])
+    assert _hulls(points[:0], index[:0], 0, 0.1) == []

@@ -1,0 +1,126 @@
+"""Compiled loop of the outline polygons (:func:`modeling.model._hulls`): after GEOS has made the
+convex hulls, every set's polygon, counter-clockwise, in one array.
+
+Compiled with Numba on first use (:mod:`modeling._jit`); importing this module does not import
+Numba.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from modeling._jit import compiled_on_first_call
+
+
+@compiled_on_first_call
+def finish_hulls(
+    points: np.ndarray,
+    counts: np.ndarray,
+    flat: np.ndarray,
+    grow: np.ndarray,
+    poly_set: np.ndarray,
+    coords: np.ndarray,
+    n_coords: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The polygon of each point set: its GEOS hull, or the rectangle around a flat set.
+
+    A hull ring of (almost) no area (``|2 area| <= 1e-9 max(span, 1e-3)``, span the largest
+    coordinate difference from its first vertex) makes its set flat. A flat set's polygon is the
+    rectangle at distance ``grow`` around the segment between its extreme points: from the set's
+    first point, the direction to its farthest point (the first of equals; x if all points
+    coincide), then the smallest and largest projections on that direction.
+
+    Args:
+        points: (p, 2) the points of all sets, set after set.
+        counts: (n,) points per set.
+        flat: (n,) whether a set is flat already (at most two points, or no polygon from GEOS);
+            updated in place with the thin hulls.
+        grow: (n,) half-thickness of each set's rectangle, metres.
+        poly_set: (q,) the sets whose GEOS hull is a polygon, increasing.
+        coords: (c, 2) their exterior rings, closed (first vertex repeated), one after another.
+        n_coords: (q,) vertices of each ring, closing one included.
+
+    Returns:
+        ``(vertices, offsets)``: (v, 2) the polygons (counter-clockwise, not closed) one after
+        another, and (n + 1,) where each set's polygon starts.
+    """
+    n = counts.shape[0]
+    q = poly_set.shape[0]
+    # the hull rings: twice the signed area (shoelace) and the span, so thin ones turn flat
+    ring_start = np.empty(q, np.int64)
+    ccw = np.empty(q, np.bool_)
+    c0 = 0
+    for k in range(q):
+        m = n_coords[k]
+        ring_start[k] = c0
+        area2 = 0.0
+        span = 0.0
+        x0 = coords[c0, 0]
+        y0 = coords[c0, 1]
+        for r in range(c0, c0 + m):
+            if r < c0 + m - 1:
+                area2 += coords[r, 0] * coords[r + 1, 1] - coords[r + 1, 0] * coords[r, 1]
+            span = max(span, abs(coords[r, 0] - x0), abs(coords[r, 1] - y0))
+        if abs(area2) <= 1e-9 * max(span, 1e-3):
+            flat[poly_set[k]] = True
+        ccw[k] = area2 > 0
+        c0 += m
+    # sizes, then the vertices
+    ring_of = np.full(n, -1, np.int64)
+    for k in range(q):
+        ring_of[poly_set[k]] = k
+    offsets = np.empty(n + 1, np.int64)
+    offsets[0] = 0
+    for s in range(n):
+        size = 4 if flat[s] else n_coords[ring_of[s]] - 1
+        offsets[s + 1] = offsets[s] + size
+    out = np.empty((offsets[n], 2))
+    first = 0  # the set's first point
+    for s in range(n):
+        o = offsets[s]
+        if not flat[s]:
+            k = ring_of[s]
+            c0 = ring_start[k]
+            m = n_coords[k] - 1
+            for v in range(m):
+                # the ring without its closing vertex, reversed if clockwise
+                r = c0 + v if ccw[k] else c0 + m - v
+                out[o + v, 0] = coords[r, 0]
+                out[o + v, 1] = coords[r, 1]
+        else:
+            px = points[first, 0]
+            py = points[first, 1]
+            far_d2 = -1.0
+            far_x = 0.0
+            far_y = 0.0
+            for i in range(first, first + counts[s]):
+                rx = points[i, 0] - px
+                ry = points[i, 1] - py
+                d2 = rx * rx + ry * ry
+                if d2 > far_d2:
+                    far_d2, far_x, far_y = d2, rx, ry
+            length = math.sqrt(far_d2)
+            if length > 1e-12:
+                ax = far_x / max(length, 1e-12)
+                ay = far_y / max(length, 1e-12)
+            else:
+                ax, ay = 1.0, 0.0
+            t_lo = math.inf
+            t_hi = -math.inf
+            for i in range(first, first + counts[s]):
+                t = (points[i, 0] - px) * ax + (points[i, 1] - py) * ay
+                t_lo = min(t_lo, t)
+                t_hi = max(t_hi, t)
+            g = grow[s]
+            ax_, ay_ = px + t_lo * ax, py + t_lo * ay  # the extreme points a and b
+            bx_, by_ = px + t_hi * ax, py + t_hi * ay
+            nx, ny = -ay * g, ax * g  # normal and tangent, grown
+            tx, ty = ax * g, ay * g
+            out[o, 0], out[o, 1] = ax_ - tx - nx, ay_ - ty - ny
+            out[o + 1, 0], out[o + 1, 1] = bx_ + tx - nx, by_ + ty - ny
+            out[o + 2, 0], out[o + 2, 1] = bx_ + tx + nx, by_ + ty + ny
+            out[o + 3, 0], out[o + 3, 1] = ax_ - tx + nx, ay_ - ty + ny
+        first += counts[s]
+    return out, offsets
