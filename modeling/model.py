@@ -805,28 +805,15 @@ def _occlusion(obs: FloorObservation, ends: FloatArray, n_rays: int = 361) -> An
     if not cnt.any():
         return _EMPTY_POLYGON
     rng = _ray_kernel.nearest_hits(u, p, e, k0, cnt)
-    blocked = rng < R
-    if not blocked.any():
+    # Runs of consecutive blocked rays -> polygons (the wedge minus the star polygon of the ray
+    # hits), all rings in one vectorised call (shapely closes each ring, as Polygon(shell) does).
+    vertices, sizes = _ray_kernel.shadow_rings(vp, u, rng, R)
+    if sizes.shape[0] == 0:
         return _EMPTY_POLYGON
-    # Runs of consecutive blocked rays -> polygons: the hit points, then back along the range
-    # arc, which reaches one ray beyond each end of the run (the shadow's edge lies between a
-    # blocked and a free ray); this is the wedge minus the star polygon of the ray hits.
-    edges = np.diff(np.concatenate(([0], blocked.astype(np.int8), [0])))
-    run_lo = np.flatnonzero(edges == 1)
-    run_hi = np.flatnonzero(edges == -1)  # exclusive
-    far = vp + R * u
-    rings = [
-        np.vstack(
-            [vp + rng[s0:s1, None] * u[s0:s1], far[max(s0 - 1, 0) : min(s1 + 1, n_rays)][::-1]]
-        )
-        for s0, s1 in zip(run_lo.tolist(), run_hi.tolist(), strict=True)
-    ]
-    # All rings in one vectorised call (shapely closes each ring, as ``Polygon(shell)`` does).
-    sizes = [r.shape[0] for r in rings]
     polys = shapely.polygons(
-        shapely.linearrings(np.concatenate(rings), indices=np.repeat(np.arange(len(rings)), sizes))
+        shapely.linearrings(vertices, indices=np.repeat(np.arange(sizes.shape[0]), sizes))
     )
-    return polys[0] if len(rings) == 1 else shapely.multipolygons(polys)
+    return polys[0] if sizes.shape[0] == 1 else shapely.multipolygons(polys)
 
 
 # The empty result of ``_occlusion`` (shapely geometries are immutable: one can be shared, and
