@@ -71,7 +71,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import numpy as np
 import shapely
 
-from modeling import _hull_kernel, _ray_kernel
+from modeling import _model_kernel, _ray_kernel
 from modeling._validation import FloatArray, positive
 from modeling.gaps import Relation, _check_eps, gap_width_moments
 from modeling.observation import FloorObservation
@@ -274,32 +274,12 @@ class EnvironmentModel:
 
 # ------------------------------------------------------------------------------- helpers
 def _components(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
-    """Connected components of the graph on ``n`` nodes with edges ``(i, j)``.
-
-    Vectorised union-find: every round hooks the larger of two roots joined by an edge onto the
-    smaller, then compresses paths fully; it stops when no edge joins two roots. (Much cheaper
-    than scipy's csgraph on the small graphs of one situation, which it calls many times.)
-
-    Returns:
-        (n,) label of each node: the smallest node of its component.
-    """
-    parent = np.arange(n, dtype=np.int64)
-    i = np.asarray(i, dtype=np.int64)
-    j = np.asarray(j, dtype=np.int64)
-    while i.shape[0]:
-        ri, rj = parent[i], parent[j]
-        split = (ri != rj).nonzero()[0]
-        if split.shape[0] == 0:
-            break
-        i, j, ri, rj = i[split], j[split], ri[split], rj[split]
-        np.minimum.at(parent, np.maximum(ri, rj), np.minimum(ri, rj))
-        while True:
-            grand = parent[parent]
-            # (``np.array_equal`` costs several times this on the small arrays seen here.)
-            if (grand == parent).all():
-                break
-            parent = grand
-    return parent
+    """Connected components of the graph on ``n`` nodes with edges ``(i, j)``: (n,) label of
+    each node, the smallest node of its component (a compiled union-find: much cheaper than
+    scipy's csgraph on the small graphs of one situation, which it calls many times)."""
+    return _model_kernel.components(
+        int(n), np.asarray(i, dtype=np.int64), np.asarray(j, dtype=np.int64)
+    )
 
 
 def _record_maker(cls: type[_R], names: tuple[str, ...]) -> Callable[..., _R]:
@@ -401,7 +381,7 @@ def _hulls(
         coords = np.zeros((0, 2))
         n_coords = np.zeros(0, dtype=np.int64)
     grow = np.broadcast_to(np.asarray(grow_m, dtype=np.float64), (n,))
-    vertices, offsets = _hull_kernel.finish_hulls(
+    vertices, offsets = _model_kernel.finish_hulls(
         np.ascontiguousarray(points, dtype=np.float64),
         counts,
         flat,

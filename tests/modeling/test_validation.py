@@ -159,3 +159,24 @@ def test_outline_polygons_are_the_convex_hulls_or_the_rectangles_of_flat_sets() 
     # two points: the rectangle of the segment, 0.1 wide
     np.testing.assert_allclose(out[3], [[0.05, 0.95], [0.05, 2.05], [-0.05, 2.05], [-0.05, 0.95]])
     assert _hulls(points[:0], index[:0], 0, 0.1) == []
+
+
+def test_components_label_each_node_with_the_smallest_node_of_its_component() -> None:
+    import networkx as nx
+
+    from modeling.model import _components
+
+    rng = np.random.default_rng(2)
+    for n, m in [(0, 0), (1, 0), (6, 0), (30, 20), (200, 150), (50, 400)]:
+        i, j = rng.integers(0, max(n, 1), m), rng.integers(0, max(n, 1), m)
+        graph = nx.Graph()
+        graph.add_nodes_from(range(n))
+        graph.add_edges_from(zip(i.tolist(), j.tolist(), strict=True))
+        want = np.empty(n, dtype=np.int64)
+        for comp in nx.connected_components(graph):
+            want[list(comp)] = min(comp)
+        assert np.array_equal(_components(n, i, j), want)
+    # a long chain, given in either direction, is one component
+    chain = np.arange(4999)
+    assert not _components(5000, chain, chain + 1).any()
+    assert not _components(5000, chain[::-1] + 1, chain[::-1]).any()

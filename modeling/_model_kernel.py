@@ -1,5 +1,5 @@
-"""Compiled loop of the outline polygons (:func:`modeling.model._hulls`): after GEOS has made the
-convex hulls, every set's polygon, counter-clockwise, in one array.
+"""Compiled loops of :mod:`modeling.model`: the outline polygons (:func:`finish_hulls`, after GEOS
+has made the convex hulls) and the connected components of small graphs (:func:`components`).
 
 Compiled with Numba on first use (:mod:`modeling._jit`); importing this module does not import
 Numba.
@@ -124,3 +124,33 @@ def finish_hulls(
             out[o + 3, 0], out[o + 3, 1] = ax_ - tx + nx, ay_ - ty + ny
         first += counts[s]
     return out, offsets
+
+
+@compiled_on_first_call
+def components(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """Connected components of the graph on ``n`` nodes with edges ``(i[k], j[k])``.
+
+    Union-find with path halving: each edge hooks the larger of its two roots onto the smaller
+    (so every parent is smaller than its child, and a root is the smallest node of its tree), then
+    one pass in node order points every node at its root.
+
+    Returns:
+        (n,) int64 label of each node: the smallest node of its component.
+    """
+    parent = np.arange(n)
+    for k in range(i.shape[0]):
+        a = i[k]
+        while parent[a] != a:  # path halving on the way up
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        b = j[k]
+        while parent[b] != b:
+            parent[b] = parent[parent[b]]
+            b = parent[b]
+        if a < b:
+            parent[b] = a
+        elif b < a:
+            parent[a] = b
+    for v in range(n):  # its parent, smaller, points at the root already
+        parent[v] = parent[parent[v]]
+    return parent
