@@ -407,15 +407,16 @@ class _Partition:
         items: (k,) active items sorted by (obstacle, item index).
         counts: (n_obst,) number of items of each obstacle.
         bounds: Where each obstacle's items start in ``items`` (n_obst + 1 entries).
-        keys: Cache key of each obstacle (its items' bytes).
         imp_rows: (q,) rows of the impassable relations inside obstacles (ascending).
         link_obst: (q,) obstacle of each of those rows.
         oi: (m,) obstacle of each relation's first item (-1: inactive).
         oj: (m,) obstacle of each relation's second item.
         und: Undecided rows between obstacles grouped by pair (see :func:`_pair_groups`).
         region_rows: The rows of each group of ``und``.
-        region_keys: Cache key of each group (its rows' bytes).
         pas_rows: (p,) short passable rows between obstacles (ascending).
+        obstacles: Its :class:`Obstacle` records, and
+        region_polygons: the polygon of each group of ``und``, both set by
+            :meth:`_Context.prepare`.
     """
 
     __slots__ = (
@@ -423,13 +424,13 @@ class _Partition:
         "counts",
         "imp_rows",
         "items",
-        "keys",
         "link_obst",
         "n_obst",
+        "obstacles",
         "oi",
         "oj",
         "pas_rows",
-        "region_keys",
+        "region_polygons",
         "region_rows",
         "und",
     )
@@ -450,9 +451,6 @@ class _Partition:
         self.items = items
         self.counts = counts
         self.bounds = [0, *np.cumsum(counts).tolist()]
-        self.keys = [
-            items[self.bounds[c] : self.bounds[c + 1]].tobytes() for c in range(self.n_obst)
-        ]
         self.imp_rows = imp_rows
         self.link_obst = link_obst
         self.oi = oi
@@ -461,16 +459,26 @@ class _Partition:
         rows, starts = und[0], und[1]
         stops = [*starts[1:].tolist(), rows.shape[0]] if starts.shape[0] else []
         self.region_rows = [rows[s0:s1] for s0, s1 in zip(starts.tolist(), stops, strict=True)]
-        self.region_keys = [r.tobytes() for r in self.region_rows]
         self.pas_rows = pas_rows
+        self.obstacles: list[Obstacle] = []
+        self.region_polygons: list[FloatArray] = []
+
+    def keys(self) -> list[bytes]:
+        """Cache key of each obstacle (its items' bytes)."""
+        b = self.bounds
+        return [self.items[b[c] : b[c + 1]].tobytes() for c in range(self.n_obst)]
+
+    def region_keys(self) -> list[bytes]:
+        """Cache key of each group of ``und`` (its rows' bytes)."""
+        return [r.tobytes() for r in self.region_rows]
 
 
 class _Context:
     """Item arrays and caches shared by the situations of one model.
 
-    Obstacles are cached by their member items and region polygons by their relation rows, so
-    situations that share them (most do: they differ by a few ambiguous candidates) build them
-    once; width moments are cached per relation row.
+    Obstacles are identified by their member items and region polygons by their relation rows,
+    so situations that share them (most do: they differ by a few ambiguous candidates) build
+    them once (:meth:`prepare`); width moments are cached per relation row.
     """
 
     def __init__(
@@ -487,8 +495,6 @@ class _Context:
         self.item_segment = item_segment
         self.item_candidate = item_candidate
         self.outline_buffer_m = outline_buffer_m
-        self.obstacle_cache: dict[bytes, Obstacle] = {}
-        self.region_cache: dict[bytes, FloatArray] = {}
         m = len(rel)
         self.width_mean = np.full(m, np.nan)
         self.width_std = np.full(m, np.nan)
@@ -500,27 +506,43 @@ class _Context:
         self.is_short_pas = (rel.kind == _PAS) & (rel.distance_m <= passage_max_m)
 
     def prepare(self, parts: list[_Partition]) -> None:
-        """Build and cache, in one batch, the obstacles and region polygons of ``parts`` that
-        are not cached yet (each once, from the first situation that has it)."""
-        new_keys: list[bytes] = []  # the new obstacles, in the order of their new id
+        """Build, in one batch, the obstacles and region polygons of ``parts`` (each once, from
+        the first situation that has it; shared by content between situations), and set each
+        part's ``obstacles`` and ``region_polygons``."""
+        shared = len(parts) > 1  # only then can situations share obstacles and regions
+        new_keys: list[bytes | int] = []  # the new obstacles, in the order of their new id
         seen: set[bytes] = set()
         it_parts: list[np.ndarray] = []  # their items, grouped by new id
         ob_parts: list[np.ndarray] = []  # the new id of each of those items
         link_parts: list[np.ndarray] = []  # their impassable links (relation rows)
         lob_parts: list[np.ndarray] = []  # the new id of each of those links
-        new_regions: dict[bytes, np.ndarray] = {}
+        new_regions: dict[bytes | int, np.ndarray] = {}
+        keys: list[list[bytes]] = []
+        region_keys: list[list[bytes]] = []
         for part in parts:
-            todo = []
-            for c, key in enumerate(part.keys):
-                if key not in self.obstacle_cache and key not in seen:
-                    seen.add(key)
-                    todo.append(c)
+            if shared:
+                keys.append(part.keys())
+                todo = []
+                for c, key in enumerate(keys[-1]):
+                    if key not in seen:
+                        seen.add(key)
+                        todo.append(c)
+                region_keys.append(part.region_keys())
+                for key, rows in zip(region_keys[-1], part.region_rows, strict=True):
+                    if key not in new_regions:
+                        new_regions[key] = rows
+            else:
+                todo = list(range(part.n_obst))
+                new_regions = dict(enumerate(part.region_rows))
             if todo:
                 # Vectorised selection of the new obstacles' items and links (new ids follow
                 # the obstacle order, so items stay grouped by new id).
                 new_id = np.full(part.n_obst, -1, dtype=np.int64)
                 new_id[todo] = np.arange(len(new_keys), len(new_keys) + len(todo))
-                new_keys.extend(part.keys[c] for c in todo)
+                if shared:
+                    new_keys.extend(keys[-1][c] for c in todo)
+                else:
+                    new_keys.extend(todo)
                 ob = new_id[np.repeat(np.arange(part.n_obst), part.counts)]
                 keep = ob >= 0
                 it_parts.append(part.items[keep])
@@ -529,11 +551,6 @@ class _Context:
                 lk = lob >= 0
                 link_parts.append(part.imp_rows[lk])
                 lob_parts.append(lob[lk])
-            for key, rows in zip(part.region_keys, part.region_rows, strict=True):
-                if key not in self.region_cache and key not in new_regions:
-                    new_regions[key] = rows
-        if not new_keys and not new_regions:
-            return
         t = len(new_keys)
         empty = np.zeros(0, dtype=np.int64)
         it = np.concatenate(it_parts) if t else empty
@@ -556,10 +573,6 @@ class _Context:
             n_sets,
             grow,
         )
-        for key, h in zip(new_regions, hulls[t:], strict=True):
-            self.region_cache[key] = h
-        if t == 0:
-            return
         # Skeleton: the obstacle's segments, then its impassable links (closest points).
         order = np.argsort(np.concatenate((ob, lob)), kind="stable")
         lines = np.concatenate([self.ends[it], self.links[link_rows]])[order]
@@ -568,16 +581,29 @@ class _Context:
         seg_of = self.item_segment[it].tolist()
         cand_of = self.item_candidate[it].tolist()
         start = 0
-        for k, (key, n_items) in enumerate(zip(new_keys, cnt.tolist(), strict=True)):
+        obstacles = []
+        for k, n_items in enumerate(cnt.tolist()):
             stop = start + n_items
-            self.obstacle_cache[key] = _make_obstacle(
-                pt_parts[k],
-                hulls[k],
-                tuple([s for s in seg_of[start:stop] if s >= 0]),
-                tuple([(a, b) for a, b in cand_of[start:stop] if a >= 0]),
-                line_parts[k],
+            obstacles.append(
+                _make_obstacle(
+                    pt_parts[k],
+                    hulls[k],
+                    tuple([s for s in seg_of[start:stop] if s >= 0]),
+                    tuple([(a, b) for a, b in cand_of[start:stop] if a >= 0]),
+                    line_parts[k],
+                )
             )
             start = stop
+        if not shared:
+            for part in parts:
+                part.obstacles = obstacles
+                part.region_polygons = hulls[t:]
+            return
+        by_key = dict(zip(new_keys, obstacles, strict=True))
+        region_by_key = dict(zip(new_regions, hulls[t:], strict=True))
+        for part, part_keys, part_region_keys in zip(parts, keys, region_keys, strict=True):
+            part.obstacles = [by_key[k] for k in part_keys]
+            part.region_polygons = [region_by_key[k] for k in part_region_keys]
 
     def moments(self, rows: np.ndarray) -> tuple[list[float], list[float]]:
         """Mean and standard deviation (metres) of the width of each relation row (cached)."""
@@ -672,7 +698,7 @@ def _regions(ctx: _Context, part: _Partition) -> list[CriticalRegion]:
     oi, oj = part.oi, part.oj
     stops = [*starts[1:].tolist(), rows.shape[0]]
     narrowest = rows[starts]
-    polys = [ctx.region_cache[k] for k in part.region_keys]
+    polys = part.region_polygons
     w_mean, w_std = ctx.moments(narrowest)
     narrow_pts = list(_oriented(ctx, narrowest, oi[narrowest] <= oj[narrowest]))
     rel_lines = ctx.links[rows]
@@ -739,7 +765,7 @@ def _situations(
     return [
         Situation(
             probability=float(probability),
-            obstacles=tuple(ctx.obstacle_cache[k] for k in part.keys),
+            obstacles=tuple(part.obstacles),
             critical_regions=tuple(_regions(ctx, part)),
             choice=dict(sorted(choice.items())),
             passages=tuple(_passages(ctx, part)),
