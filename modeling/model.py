@@ -347,10 +347,11 @@ def _hulls(
     """Convex hulls (each (m, 2), counter-clockwise, not closed) of point sets (vectorised).
 
     A degenerate hull (all points on a line, or one point) becomes the rectangle around that
-    segment at distance ``grow_m``, so every polygon has an area. Sets of two points are handled
-    in numpy, the others by GEOS (shapely). Every set is computed on its own (GEOS per geometry,
-    numpy row-wise or per set), so a set's hull does not depend on the other sets of the call:
-    callers batch as many sets as they can into one call to share its fixed cost.
+    segment at distance ``grow_m``, so every polygon has an area. GEOS (shapely) makes the hulls
+    of the sets of three or more points; the thin-hull test, the orientation and the rectangles
+    are one compiled pass (:func:`modeling._model_kernel.finish_hulls`). Every set is computed on
+    its own, so a set's hull does not depend on the other sets of the call: callers batch as many
+    sets as they can into one call to share its fixed cost.
 
     Args:
         points: (p, 2) points, metres.
