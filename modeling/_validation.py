@@ -1,8 +1,12 @@
-"""Private validators: return the checked array or raise ``ValueError`` naming the argument."""
+"""Private validators (return the checked value or raise ``ValueError`` naming the argument) and
+the options of a stage, read from its signature."""
 
 from __future__ import annotations
 
+import inspect
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -70,3 +74,9 @@ def positive(value: float, name: str, *, allow_zero: bool = False) -> float:
         kind = "non-negative" if allow_zero else "positive"
         raise ValueError(f"{name} must be a finite {kind} number, got {value!r}")
     return x
+
+
+def keyword_options(fn: Callable[..., Any]) -> dict[str, Any]:
+    """``fn``'s keyword-only parameters (a stage's options) with their defaults, in order."""
+    params = inspect.signature(fn).parameters.values()
+    return {p.name: p.default for p in params if p.kind is inspect.Parameter.KEYWORD_ONLY}

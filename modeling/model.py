@@ -510,40 +510,35 @@ class _Context:
         """Build, in one batch, the obstacles and region polygons of ``parts`` (each once, from
         the first situation that has it; shared by content between situations), and set each
         part's ``obstacles`` and ``region_polygons``."""
-        shared = len(parts) > 1  # only then can situations share obstacles and regions
+        # Situations share obstacles and regions by content (their items' and rows' bytes); a
+        # lone situation shares nothing, so its own indices serve as keys.
+        shared = len(parts) > 1
         new_keys: list[bytes | int] = []  # the new obstacles, in the order of their new id
-        seen: set[bytes] = set()
+        seen: set[bytes | int] = set()
         it_parts: list[np.ndarray] = []  # their items, grouped by new id
         ob_parts: list[np.ndarray] = []  # the new id of each of those items
         link_parts: list[np.ndarray] = []  # their impassable links (relation rows)
         lob_parts: list[np.ndarray] = []  # the new id of each of those links
         new_regions: dict[bytes | int, np.ndarray] = {}
-        keys: list[list[bytes]] = []
-        region_keys: list[list[bytes]] = []
+        keys: list[list[bytes] | range] = []
+        region_keys: list[list[bytes] | range] = []
         for part in parts:
-            if shared:
-                keys.append(part.keys())
-                todo = []
-                for c, key in enumerate(keys[-1]):
-                    if key not in seen:
-                        seen.add(key)
-                        todo.append(c)
-                region_keys.append(part.region_keys())
-                for key, rows in zip(region_keys[-1], part.region_rows, strict=True):
-                    if key not in new_regions:
-                        new_regions[key] = rows
-            else:
-                todo = list(range(part.n_obst))
-                new_regions = dict(enumerate(part.region_rows))
+            keys.append(part.keys() if shared else range(part.n_obst))
+            region_keys.append(part.region_keys() if shared else range(len(part.region_rows)))
+            todo = []
+            for c, key in enumerate(keys[-1]):
+                if key not in seen:
+                    seen.add(key)
+                    todo.append(c)
+            for key, rows in zip(region_keys[-1], part.region_rows, strict=True):
+                if key not in new_regions:
+                    new_regions[key] = rows
             if todo:
                 # Vectorised selection of the new obstacles' items and links (new ids follow
                 # the obstacle order, so items stay grouped by new id).
                 new_id = np.full(part.n_obst, -1, dtype=np.int64)
                 new_id[todo] = np.arange(len(new_keys), len(new_keys) + len(todo))
-                if shared:
-                    new_keys.extend(keys[-1][c] for c in todo)
-                else:
-                    new_keys.extend(todo)
+                new_keys.extend(keys[-1][c] for c in todo)
                 ob = new_id[np.repeat(np.arange(part.n_obst), part.counts)]
                 keep = ob >= 0
                 it_parts.append(part.items[keep])
@@ -595,11 +590,6 @@ class _Context:
                 )
             )
             start = stop
-        if not shared:
-            for part in parts:
-                part.obstacles = obstacles
-                part.region_polygons = hulls[t:]
-            return
         by_key = dict(zip(new_keys, obstacles, strict=True))
         region_by_key = dict(zip(new_regions, hulls[t:], strict=True))
         for part, part_keys, part_region_keys in zip(parts, keys, region_keys, strict=True):
@@ -970,11 +960,9 @@ def build_model(
     item_seg_arr[:n_seg] = np.arange(n_seg)
     item_cand_arr = np.full((N, 2), -1, dtype=np.int64)
     if N > n_seg:
-        n_cands = [len(am.candidates) for am in amb]
-        item_cand_arr[n_seg:, 0] = np.repeat(np.arange(len(amb)), n_cands)
-        item_cand_arr[n_seg:, 1] = np.arange(N - n_seg) - np.repeat(
-            np.cumsum(n_cands) - n_cands, n_cands
-        )
+        item_cand_arr[n_seg:] = [
+            (a, c) for a, am in enumerate(amb) for c in range(len(am.candidates))
+        ]
     item_amb = item_cand_arr[:, 0]
     for arr in (item_seg_arr, item_cand_arr):
         arr.setflags(write=False)

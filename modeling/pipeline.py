@@ -8,7 +8,6 @@
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -16,7 +15,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._validation import positive
+from modeling._validation import keyword_options, positive
 from modeling.faces import close_faces as close_faces_of
 from modeling.matching import match_segments
 from modeling.observation import FloorObservation
@@ -32,8 +31,7 @@ __all__ = ["model_from_stereo", "stereo_to_floor", "to_gray"]
 
 def _keyword_options(fn: Callable[..., Any]) -> frozenset[str]:
     """The names of ``fn``'s keyword-only parameters (its options)."""
-    params = inspect.signature(fn).parameters.values()
-    return frozenset(p.name for p in params if p.kind is inspect.Parameter.KEYWORD_ONLY)
+    return frozenset(keyword_options(fn))
 
 
 # The options of each stage, read from its signature (the one place they are listed).

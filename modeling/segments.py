@@ -44,7 +44,6 @@ Image frame: pixels, u right, v down, (0, 0) the centre of the top-left pixel.
 
 from __future__ import annotations
 
-import inspect
 import math
 import os
 import threading
@@ -57,7 +56,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from modeling._edge_kernel import edge_sums, segment_fits
-from modeling._validation import FloatArray, positive
+from modeling._validation import FloatArray, keyword_options, positive
 
 __all__ = ["ImageSegments", "extract_segment_pair", "extract_segments"]
 
@@ -391,11 +390,7 @@ class _Options(NamedTuple):
     near_px: float
 
 
-_DEFAULTS: dict[str, Any] = {
-    name: p.default
-    for name, p in inspect.signature(extract_segments).parameters.items()
-    if p.kind is inspect.Parameter.KEYWORD_ONLY
-}
+_DEFAULTS: dict[str, Any] = keyword_options(extract_segments)
 assert tuple(_DEFAULTS) == _Options._fields
 
 

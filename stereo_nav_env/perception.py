@@ -27,7 +27,7 @@ import shapely
 from numpy.typing import NDArray
 from scipy.special import ndtri
 
-from modeling._jit import compiled_on_first_call
+from modeling._jit import compiled_helper, compiled_on_first_call
 from modeling.model import EnvironmentModel, build_model
 from modeling.pipeline import stereo_to_floor
 from modeling.rig import HeadPose, StereoRig
@@ -181,15 +181,20 @@ def noise_of_levels(levels: NDArray[np.uint16], sigma: float) -> NDArray[np.int1
     return _lookup(_noise_table(float(sigma)), levels)
 
 
+@compiled_helper
+def _gather(table: NDArray[np.int16], flat_levels: NDArray[np.uint16]) -> NDArray[np.int16]:
+    """``table[flat_levels]``, one pass (NumPy's fancy indexing first widens the indices to
+    intp)."""
+    out = np.empty(flat_levels.shape[0], np.int16)
+    for i in range(flat_levels.shape[0]):
+        out[i] = table[flat_levels[i]]
+    return out
+
+
 @compiled_on_first_call
 def _lookup(table: NDArray[np.int16], levels: NDArray[np.uint16]) -> NDArray[np.int16]:
-    """``table[levels]``, one pass (NumPy's fancy indexing first widens the indices to intp)."""
-    out = np.empty(levels.shape, np.int16)
-    flat_in = levels.ravel()
-    flat_out = out.ravel()
-    for i in range(flat_in.shape[0]):
-        flat_out[i] = table[flat_in[i]]
-    return out
+    """``table[levels]``, the shape of ``levels``."""
+    return _gather(table, levels.ravel()).reshape(levels.shape)
 
 
 def noisy_grey(rgb: UInt8Image, levels: NDArray[np.uint16], sigma: float) -> UInt8Image:
@@ -215,10 +220,7 @@ def _add_table_noise(
 ) -> UInt8Image:
     """``grey + table[levels]`` saturated to [0, 255], in place in ``grey`` (returned)."""
     flat_grey = grey.ravel()
-    flat_levels = levels.ravel()
-    noise = np.empty(flat_levels.shape[0], np.int16)
-    for i in range(noise.shape[0]):  # the gather apart: the addition below then vectorises
-        noise[i] = table[flat_levels[i]]
+    noise = _gather(table, levels.ravel())  # the gather apart: the addition then vectorises
     for i in range(flat_grey.shape[0]):
         value = np.int32(flat_grey[i]) + np.int32(noise[i])
         flat_grey[i] = min(max(value, 0), 255)

@@ -35,8 +35,8 @@ if "PYOPENGL_PLATFORM" not in os.environ:  # must precede the first OpenGL impor
     else:
         os.environ["PYOPENGL_PLATFORM"] = "egl"
 # llvmpipe rasterises with one thread per core. With fewer than 4 cores, 4 threads gave faster env
-# steps in 8 of 9 paired runs on a 2-core VM (about 6 %: while the step's Python holds one core,
-# more, smaller jobs balance better) and the same vector-env throughput; images are identical.
+# steps in 11 of 12 paired runs on a 2-core VM (while the step's Python holds one core, more,
+# smaller jobs balance better) and the same vector-env throughput; images are identical.
 # Read when the first context is made; a value set by the user is kept.
 if "LP_NUM_THREADS" not in os.environ and (os.cpu_count() or 1) < 4:
     os.environ["LP_NUM_THREADS"] = "4"
