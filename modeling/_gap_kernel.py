@@ -252,36 +252,50 @@ def closest_params_batch(
 
 @compiled_on_first_call
 def near_pairs(
-    ends: np.ndarray, i: np.ndarray, j: np.ndarray, limit: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The pairs ``(i[k], j[k])`` whose mean segments are at most ``limit[k]`` apart.
+    ends: np.ndarray, sigma: np.ndarray, q0: np.ndarray, q1: np.ndarray, width: float, k: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The pairs ``i < j`` among the query hits ``(q0[r], q1[r])`` (either order, repeats
+    allowed only as the two orders of one pair) whose mean segments are at most
+    ``width + k (sigma[i] + sigma[j])`` apart.
 
     Args:
         ends: (n, 2, 2) mean endpoints.
-        i, j: (m,) candidate pairs.
-        limit: (m,) largest distance kept.
+        sigma: (n,) bound on each segment's endpoint standard deviations.
+        q0, q1: (m,) candidate pairs (e.g. an STRtree's hits of the segments against themselves).
+        width: Robot width.
+        k: Multiple of the summed sigmas.
 
     Returns:
-        ``(keep, s, t)``: the kept rows (ascending) and their closest-point parameters.
+        ``(i, j, s, t)``: the kept pairs sorted by ``(i, j)`` and their closest-point parameters.
     """
-    m = i.shape[0]
-    keep = np.empty(m, dtype=np.int64)
-    s_out = np.empty(m)
-    t_out = np.empty(m)
+    n = ends.shape[0]
+    m = q0.shape[0]
+    key = np.empty(m, dtype=np.int64)
+    c = 0
+    for r in range(m):
+        if q0[r] < q1[r]:
+            key[c] = q0[r] * n + q1[r]
+            c += 1
+    key = np.sort(key[:c])  # unique keys: sorted by (i, j)
+    i_out = np.empty(c, dtype=np.int64)
+    j_out = np.empty(c, dtype=np.int64)
+    s_out = np.empty(c)
+    t_out = np.empty(c)
     n_keep = 0
-    for k in range(m):
-        a, b = i[k], j[k]
+    for r in range(c):
+        a, b = key[r] // n, key[r] % n
         p1x, p1y, q1x, q1y = ends[a, 0, 0], ends[a, 0, 1], ends[a, 1, 0], ends[a, 1, 1]
         p2x, p2y, q2x, q2y = ends[b, 0, 0], ends[b, 0, 1], ends[b, 1, 0], ends[b, 1, 1]
         s, t = closest_params(p1x, p1y, q1x, q1y, p2x, p2y, q2x, q2y)
         dx = (p2x + t * (q2x - p2x)) - (p1x + s * (q1x - p1x))
         dy = (p2y + t * (q2y - p2y)) - (p1y + s * (q1y - p1y))
-        if math.hypot(dx, dy) <= limit[k]:
-            keep[n_keep] = k
+        if math.hypot(dx, dy) <= width + k * (sigma[a] + sigma[b]):
+            i_out[n_keep] = a
+            j_out[n_keep] = b
             s_out[n_keep] = s
             t_out[n_keep] = t
             n_keep += 1
-    return keep[:n_keep], s_out[:n_keep], t_out[:n_keep]
+    return i_out[:n_keep], j_out[:n_keep], s_out[:n_keep], t_out[:n_keep]
 
 
 @compiled_on_first_call

@@ -125,17 +125,23 @@ def candidate_pairs(
         eps: Classification tolerance; unlisted pairs are passable with probability above
             ``1 - eps / 1000`` (see :func:`prune_sigmas`).
     """
-    return _pairs_and_params(endpoints, cov, width_m, eps)[0]
+    i, j, _, _ = _pairs_and_params(
+        np.ascontiguousarray(endpoints, dtype=np.float64),
+        np.ascontiguousarray(cov, dtype=np.float64),
+        width_m,
+        eps,
+    )
+    return np.stack([i, j], axis=1)
 
 
 def _pairs_and_params(
     endpoints: FloatArray, cov: FloatArray, width_m: float, eps: float
-) -> tuple[np.ndarray, FloatArray, FloatArray]:
-    """Candidate pairs and the closest-point parameters ``(s, t)`` of each."""
+) -> tuple[np.ndarray, np.ndarray, FloatArray, FloatArray]:
+    """Candidate pairs ``(i, j)``, sorted, and the closest-point parameters ``(s, t)`` of each."""
     n = endpoints.shape[0]
-    empty = np.zeros((0, 2), dtype=np.int64)
     if n < 2:
-        return empty, np.zeros(0), np.zeros(0)
+        empty = np.zeros(0, dtype=np.int64)
+        return empty, empty, np.zeros(0), np.zeros(0)
     # (n, 2) traces: upper bounds of the largest eigenvalues.
     tr = cov[:, :, 0, 0] + cov[:, :, 1, 1]
     sigma = np.sqrt(tr.max(axis=1))
@@ -147,16 +153,9 @@ def _pairs_and_params(
     lo = endpoints.min(axis=1) - grow[:, None]
     hi = endpoints.max(axis=1) + grow[:, None]
     boxes = shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1])
-    q = shapely.STRtree(boxes).query(boxes)
-    upper = q[0] < q[1]
-    i, j = q[0][upper].astype(np.int64), q[1][upper].astype(np.int64)
-    if i.shape[0] == 0:
-        return empty, np.zeros(0), np.zeros(0)
-    # Exact filter on the mean distance between the segments, rows sorted by (i, j).
-    order = np.argsort(i * n + j, kind="stable")  # i comes sorted: a stable sort is 3x faster
-    i, j = i[order], j[order]
-    keep, s_, t_ = _gap_kernel.near_pairs(endpoints, i, j, width_m + k * (sigma[i] + sigma[j]))
-    return np.stack([i[keep], j[keep]], axis=1), s_, t_
+    q = shapely.STRtree(boxes).query(boxes).astype(np.int64, copy=False)
+    # Exact filter on the mean distance between the segments, pairs sorted by (i, j).
+    return _gap_kernel.near_pairs(endpoints, sigma, q[0], q[1], float(width_m), k)
 
 
 def prune_sigmas(eps: float) -> float:
@@ -192,9 +191,7 @@ def segment_relations(
     endpoints = np.ascontiguousarray(endpoints, dtype=np.float64)
     cov = np.ascontiguousarray(cov, dtype=np.float64)
     if pairs is None:
-        pairs, s, t = _pairs_and_params(endpoints, cov, width_m, eps)
-        # Contiguous copies: every stage of the model indexes with these columns.
-        i, j = pairs[:, 0].copy(), pairs[:, 1].copy()
+        i, j, s, t = _pairs_and_params(endpoints, cov, width_m, eps)
     else:
         i = np.minimum(pairs[:, 0], pairs[:, 1]).astype(np.int64)
         j = np.maximum(pairs[:, 0], pairs[:, 1]).astype(np.int64)
