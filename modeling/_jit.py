@@ -12,12 +12,14 @@ in the module's namespace (they stay callable from Python, with the same results
 from __future__ import annotations
 
 import functools
+import threading
 from collections.abc import Callable
 from typing import Any, TypeVar
 
 F = TypeVar("F", bound=Callable[..., Any])
 
 _HELPER = "_compiled_helper"
+_COMPILING = threading.RLock()  # one thread makes the dispatchers (and replaces the helpers)
 
 
 def compiled_helper(fn: F) -> F:
@@ -35,17 +37,20 @@ def _compile_helpers(namespace: dict[str, Any]) -> None:
 
 
 def compiled_on_first_call(fn: F) -> F:
-    """``fn`` (a module-level function Numba can compile), compiled when first called."""
+    """``fn`` (a module-level function Numba can compile), compiled when first called (by one
+    thread: another thread calling it meanwhile waits for that compilation)."""
     compiled: Callable[..., Any] | None = None
 
     @functools.wraps(fn)
     def call(*args: Any) -> Any:
         nonlocal compiled
         if compiled is None:
-            import numba
+            with _COMPILING:
+                if compiled is None:
+                    import numba
 
-            _compile_helpers(fn.__globals__)
-            compiled = numba.njit(cache=True, nogil=True)(fn)
+                    _compile_helpers(fn.__globals__)
+                    compiled = numba.njit(cache=True, nogil=True)(fn)
         return compiled(*args)
 
     return call  # type: ignore[return-value]

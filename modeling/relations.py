@@ -28,6 +28,7 @@ import shapely
 
 from modeling import _gap_kernel
 from modeling._validation import FloatArray
+from modeling._worker import worker
 from modeling.gaps import Relation, classify_gaps, quadrature_rules
 
 __all__ = ["SegmentRelations", "closest_points", "segment_relations"]
@@ -197,9 +198,7 @@ def segment_relations(
         j = np.maximum(pairs[:, 0], pairs[:, 1]).astype(np.int64)
         Ei, Ej = endpoints[i], endpoints[j]
         s, t = closest_points(Ei[:, 0], Ei[:, 1], Ej[:, 0], Ej[:, 1])
-    mi, mj, ci, cj, dist, p = _gap_kernel.relation_rows(
-        endpoints, cov, i, j, s, t, float(width_m), quadrature_rules()
-    )
+    mi, mj, ci, cj, dist, p = _relation_rows(endpoints, cov, i, j, s, t, float(width_m))
     return SegmentRelations(
         i=i,
         j=j,
@@ -211,3 +210,31 @@ def segment_relations(
         p_passable=p,
         kind=classify_gaps(p, eps),
     )
+
+
+# Below this many pairs, handing half of them to the worker thread costs more than it saves.
+_SPLIT_MIN_PAIRS = 1024
+
+
+def _relation_rows(
+    endpoints: FloatArray,
+    cov: FloatArray,
+    i: np.ndarray,
+    j: np.ndarray,
+    s: FloatArray,
+    t: FloatArray,
+    width_m: float,
+) -> tuple[FloatArray, ...]:
+    """:func:`modeling._gap_kernel.relation_rows` of the pairs, a large batch in two halves at
+    once (the compiled loop releases the interpreter lock; each row is computed on its own, so
+    the result is the same)."""
+    rules = quadrature_rules()
+    m = i.shape[0]
+    if m < _SPLIT_MIN_PAIRS:
+        return _gap_kernel.relation_rows(endpoints, cov, i, j, s, t, width_m, rules)
+    h = m // 2
+    second = worker().submit(
+        _gap_kernel.relation_rows, endpoints, cov, i[h:], j[h:], s[h:], t[h:], width_m, rules
+    )
+    first = _gap_kernel.relation_rows(endpoints, cov, i[:h], j[:h], s[:h], t[:h], width_m, rules)
+    return tuple(np.concatenate(halves) for halves in zip(first, second.result(), strict=True))

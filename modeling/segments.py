@@ -45,9 +45,7 @@ Image frame: pixels, u right, v down, (0, 0) the centre of the top-left pixel.
 from __future__ import annotations
 
 import math
-import os
 import threading
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -57,6 +55,7 @@ from numpy.typing import NDArray
 
 from modeling._edge_kernel import edge_sums, segment_fits
 from modeling._validation import FloatArray, keyword_options, positive
+from modeling._worker import worker
 
 __all__ = ["ImageSegments", "extract_segment_pair", "extract_segments"]
 
@@ -368,7 +367,7 @@ def extract_segment_pair(
         raise ValueError(f"unknown option(s) of extract_segment_pair: {sorted(unknown)}")
     opts = _Options(**{**_DEFAULTS, **options})
     _check_options(*opts)
-    job = _worker().submit(_detect, img_r, opts.lsd_scale)
+    job = worker().submit(_detect, img_r, opts.lsd_scale)
     lines_l = _detect(img_l, opts.lsd_scale)
     lines_r = job.result()
     segs_l, segs_r = _fit([img_l, img_r], [lines_l, lines_r], opts)
@@ -392,22 +391,6 @@ class _Options(NamedTuple):
 
 _DEFAULTS: dict[str, Any] = keyword_options(extract_segments)
 assert tuple(_DEFAULTS) == _Options._fields
-
-
-# ------------------------------------------------------------------ the worker thread
-_WORKER: tuple[int, ThreadPoolExecutor] | None = None
-_WORKER_LOCK = threading.Lock()
-
-
-def _worker() -> ThreadPoolExecutor:
-    """This process's one worker thread (made again in a forked child, where the parent's
-    thread does not exist)."""
-    global _WORKER
-    pid = os.getpid()
-    with _WORKER_LOCK:
-        if _WORKER is None or _WORKER[0] != pid:
-            _WORKER = (pid, ThreadPoolExecutor(1, thread_name_prefix="lsd"))
-        return _WORKER[1]
 
 
 # ------------------------------------------------------------------ detection and fitting

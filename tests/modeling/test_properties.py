@@ -271,3 +271,23 @@ def test_examined_pairs_grow_linearly_with_the_segments() -> None:
         ends, cov = grid(side)
         counts.append(len(segment_relations(ends, cov, W, 0.05)) / ends.shape[0])
     assert counts[1] < 1.3 * counts[0] < 20
+
+
+def test_large_batches_split_between_two_threads_give_the_same_relations(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # A batch of more than _SPLIT_MIN_PAIRS pairs is computed in two halves, one in the worker
+    # thread: every array must equal the one-thread result exactly, in the same row order.
+    from modeling import relations
+
+    rng = np.random.default_rng(7)
+    segs = [_seg(rng) for _ in range(400)]
+    ends = np.array([s.endpoints for s in segs])
+    cov = np.array([s.cov for s in segs])
+    split = relations.segment_relations(ends, cov, W, 0.05)
+    assert len(split) >= relations._SPLIT_MIN_PAIRS
+    monkeypatch.setattr(relations, "_SPLIT_MIN_PAIRS", 10**9)
+    whole = relations.segment_relations(ends, cov, W, 0.05)
+    for name in ("i", "j", "point_i", "point_j", "cov_i", "cov_j", "distance_m", "p_passable"):
+        assert np.array_equal(getattr(split, name), getattr(whole, name)), name
+    assert np.array_equal(split.kind, whole.kind)

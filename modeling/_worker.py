@@ -1,0 +1,27 @@
+"""This process's one worker thread, for work that runs beside the calling thread.
+
+Used where the work releases the interpreter lock (OpenCV's line detector, the compiled loops), so
+the two threads run on two cores at once. Made on first use and made again in a forked child
+(where the parent's thread does not exist); callers never wait for the worker from inside it.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
+
+__all__ = ["worker"]
+
+_WORKER: tuple[int, ThreadPoolExecutor] | None = None
+_LOCK = threading.Lock()
+
+
+def worker() -> ThreadPoolExecutor:
+    """The worker thread of this process (a one-thread executor)."""
+    global _WORKER
+    pid = os.getpid()
+    with _LOCK:
+        if _WORKER is None or _WORKER[0] != pid:
+            _WORKER = (pid, ThreadPoolExecutor(1, thread_name_prefix="modeling"))
+        return _WORKER[1]
