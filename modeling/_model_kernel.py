@@ -103,8 +103,8 @@ def finish_hulls(
                     far_d2, far_x, far_y = d2, rx, ry
             length = math.sqrt(far_d2)
             if length > 1e-12:
-                ax = far_x / max(length, 1e-12)
-                ay = far_y / max(length, 1e-12)
+                ax = far_x / length
+                ay = far_y / length
             else:
                 ax, ay = 1.0, 0.0
             t_lo = math.inf
