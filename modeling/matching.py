@@ -49,10 +49,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from modeling._match_kernel import candidate_grid, decide
 from modeling._validation import FloatArray, positive
 from modeling.rig import StereoRig
 from modeling.segments import ImageSegments
@@ -281,94 +283,37 @@ def _candidates(
     margin_px: float,
 ) -> _Candidates | None:
     """Pairs passing the epipolar, direction, photometric and disparity-range constraints, or
-    ``None`` when none does (see the module docstring)."""
+    ``None`` when none does (see the module docstring): one compiled pass over the (nL, nR) grid
+    (``_match_kernel.candidate_grid``)."""
     if len(left) == 0 or len(right) == 0:
         return None
-    # Every constraint is evaluated on the whole (nL, nR) grid and the pairs are gathered once at
-    # the end: with a few dozen segments per image the cost is the number of numpy calls, not the
-    # grid's size. Each grid entry is the same expression of the same two segments as on the
-    # gathered pairs, so the values are identical.
-    v0L, v1L = left.endpoints[:, 0, 1], left.endpoints[:, 1, 1]
-    v0R, v1R = right.endpoints[:, 0, 1], right.endpoints[:, 1, 1]
-    n_right = v0R.shape[0]
-    rows = np.empty((v0L.shape[0], n_right, 2))  # first and last row of the overlap, px
-    lo = np.maximum(v0L[:, None], v0R, out=rows[..., 0])
-    hi = np.minimum(v1L[:, None], v1R, out=rows[..., 1])
-    ov = hi - lo
-    ok = ov >= np.maximum(
-        min_overlap_px, min_overlap_frac * np.minimum((v1L - v0L)[:, None], v1R - v0R)
+    li, rj, rows, ov, disp, opposite = candidate_grid(
+        *_columns(left),
+        *_columns(right),
+        float(min_overlap_px),
+        float(min_overlap_frac),
+        math.radians(max_angle_diff_deg),
+        bool(allow_opposite),
+        float(max_grey_diff),
+        float(max_near_grey_diff),
+        max(rig.min_disparity_px - margin_px, 1e-3),
+        rig.max_disparity_px + margin_px,
     )
-    ok &= np.abs(left.angle_rad[:, None] - right.angle_rad) <= math.radians(max_angle_diff_deg)
-    opposite = left.polarity[:, None] != right.polarity
-    if not allow_opposite:
-        ok &= ~opposite
-    # photometric agreement of the four side samples: far left, far right, near left, near right
-    far_l = np.abs(left.grey_left[:, None] - right.grey_left) <= max_grey_diff
-    far_r = np.abs(left.grey_right[:, None] - right.grey_right) <= max_grey_diff
-    near_l = np.abs(left.grey_left_near[:, None] - right.grey_left_near) <= max_near_grey_diff
-    near_r = np.abs(left.grey_right_near[:, None] - right.grey_right_near) <= max_near_grey_diff
-    ok &= np.where(opposite, (far_l & near_l) | (far_r & near_r), (far_l | far_r) & near_l & near_r)
-    # disparity along the pair: d(v) = u_left(v) - u_right(v) = (a_l - a_r) + (s_l - s_r) v, with
-    # u(v) = a + s v the fitted lines; evaluated at both ends of the overlap at once
-    a_l = left.u_center - left.slope * left.v_center
-    a_r = right.u_center - right.slope * right.v_center
-    d_a = a_l[:, None] - a_r
-    d_s = left.slope[:, None] - right.slope
-    disp = d_a[..., None] + d_s[..., None] * rows
-    d_lo, d_hi = disp[..., 0], disp[..., 1]
-    dmin = max(rig.min_disparity_px - margin_px, 1e-3)
-    dmax = rig.max_disparity_px + margin_px
-    ok &= (np.minimum(d_lo, d_hi) >= dmin) & (np.maximum(d_lo, d_hi) <= dmax)
-    flat = np.flatnonzero(ok)  # row-major: sorted by left, then right index
-    if flat.size == 0:
+    if li.size == 0:
         return None
-    li, rj = np.divmod(flat, n_right)
-    return _Candidates(
-        li=li,
-        rj=rj,
-        rows=rows.reshape(-1, 2)[flat],
-        ov=ov.ravel()[flat],
-        disp=disp.reshape(-1, 2)[flat],
-        opposite=opposite.ravel()[flat],
-    )
+    return _Candidates(li=li, rj=rj, rows=rows, ov=ov, disp=disp, opposite=opposite)
 
 
-def _exclusive_right(
-    sel: IntArray,
-    a_k: FloatArray,
-    cand: _Candidates,
-    d_mid: FloatArray,
-    weight: FloatArray,
-    n_left: int,
-    agree_px: float,
-) -> NDArray[np.bool_]:
-    """Which kept claims survive uniqueness (see the module docstring): a certain claim loses to a
-    stronger claim of another left segment on the same right segment at another disparity."""
-    lsel, rsel = cand.li[sel], cand.rj[sel]
-    survive = np.ones(sel.size, dtype=bool)
-    shared = np.flatnonzero(np.bincount(rsel)[rsel] > 1)
-    if shared.size == 0:
-        return survive
-    single = np.bincount(lsel, minlength=n_left)[lsel[shared]] == 1
-    if not single.any():
-        return survive
-    x = shared[single]  # certain claims on shared right segments: the ones that can lose
-    r, owner, d, a, w = (
-        rsel[shared],
-        lsel[shared],
-        d_mid[sel[shared]],
-        a_k[shared],
-        weight[sel[shared]],
+def _columns(segments: ImageSegments) -> tuple[Any, ...]:
+    """The arrays of ``segments`` that ``candidate_grid`` reads, in its argument order."""
+    s = segments
+    return (
+        s.endpoints,
+        s.angle_rad,
+        s.polarity,
+        (s.grey_left, s.grey_right, s.grey_left_near, s.grey_right_near),
+        (s.u_center, s.slope, s.v_center),
     )
-    rx, ox, dx, ax, wx = r[single], owner[single], d[single], a[single], w[single]
-    loses = (
-        (rx[:, None] == r)
-        & (ox[:, None] != owner)
-        & (np.abs(dx[:, None] - d) > agree_px)
-        & ((a > ax[:, None]) | ((a == ax[:, None]) & (w > wx[:, None])))
-    ).any(axis=1)
-    survive[x[loses]] = False
-    return survive
 
 
 def match_candidates(
@@ -579,68 +524,31 @@ def match_segments(
     Wreg = np.exp(-0.5 * (du * du + dv * dv))
     Wreg.flat[:: nrow + 1] = self_weight
     Hist = Wreg @ C
-    top = Hist.max(axis=1)
-    # a peak: the maximum of its neighbourhood (+-min_peak_sep_px), and the first bin of a flat top
-    half = math.ceil(min_peak_sep_px / _BIN_PX)
-    padded = np.zeros((nrow, nbins + 2 * half))
-    padded[:, half : half + nbins] = Hist
-    # the maximum over each window of 2 half + 1 bins by doubling (a sparse table: max is exact,
-    # so overlapping halves give the same value as the bin-by-bin scan, in log2 numpy calls)
-    width = 2 * half + 1
-    win = padded  # win[:, j] = max(padded[:, j : j + w])
-    w = 1
-    while 2 * w <= width:
-        win = np.maximum(win[:, :-w], win[:, w:])
-        w *= 2
-    local_max = np.maximum(win[:, :nbins], win[:, width - w : width - w + nbins])
-    is_peak = Hist == local_max
-    is_peak[:, 1:] &= Hist[:, 1:] > Hist[:, :-1]
-    is_peak &= (Hist >= rel_peak * top[:, None]) & (Hist > 0)
-    pr, pb = np.nonzero(is_peak)  # sorted by row, then bin
-    # sub-bin peak position by a parabola through the three bins around the peak
-    h0 = Hist[pr, pb]
-    hm = Hist[pr, np.maximum(pb - 1, 0)]
-    hp = Hist[pr, np.minimum(pb + 1, nbins - 1)]
-    # at a maximum h0 >= hm, hp, so |off| <= 0.5 (a flat top, den 0, has hm == hp: off 0)
-    off = 0.5 * (hm - hp) / np.minimum(hm - 2.0 * h0 + hp, -1e-300)
-    peak_pos = d_base + (pb + off) * _BIN_PX
 
-    # ---------------------------------------------------------------- agreement with peaks
-    # the nearest peak of the candidate's own row (keys: row * span + disparity, both sorted;
-    # span exceeds the disparity range by more than agree_px, so other rows never agree)
-    span = nbins * _BIN_PX + 4.0 * agree_px
-    peak_key = pr * span + (peak_pos - d_base)
-    cand_key = r * span + (d_mid - d_base)
-    j_hi = np.minimum(np.searchsorted(peak_key, cand_key), peak_key.size - 1)
-    j_lo = np.maximum(j_hi - 1, 0)
-    dist_hi = np.abs(cand_key - peak_key[j_hi])
-    dist_lo = np.abs(cand_key - peak_key[j_lo])
-    use_lo = dist_lo < dist_hi
-    best_peak = np.where(use_lo, j_lo, j_hi)
-    best_dist = np.where(use_lo, dist_lo, dist_hi)
-    agree = np.flatnonzero(best_dist <= agree_px)
-    if agree.size == 0:
+    # ---------------------------------------------------------------- decision
+    # the prominent peaks of each region (local maxima within +-min_peak_sep_px, the first bin
+    # of a flat top, sub-bin by a parabola), each peak's closest candidate within agree_px (the
+    # nearest peak of the candidate's row; ties: the longer overlap), uniqueness, Eq. 1: one
+    # compiled pass (``_match_kernel.decide``)
+    sel, a_k, prob, peak_disp = decide(
+        Hist,
+        r,
+        li,
+        cand.rj,
+        d_mid,
+        weight,
+        float(d_base),
+        _BIN_PX,
+        math.ceil(min_peak_sep_px / _BIN_PX),
+        float(rel_peak),
+        nbins * _BIN_PX + 4.0 * agree_px,
+        float(agree_px),
+        bool(unique_right),
+        nL,
+    )
+    if sel.size == 0:
         return StereoMatches.empty(n_cand)
-    # the closest candidate of each (left segment, peak); ties: the longer overlap
-    order = np.lexsort((-weight[agree], best_dist[agree], best_peak[agree]))
-    agree = agree[order]
-    bp = best_peak[agree]
-    first = np.empty(bp.size, dtype=bool)
-    first[0] = True
-    np.not_equal(bp[1:], bp[:-1], out=first[1:])
-    sel = agree[first]
-    a_k = h0[best_peak[sel]]
-    if unique_right:
-        survive = _exclusive_right(sel, a_k, cand, d_mid, weight, nL, agree_px)
-        sel, a_k = sel[survive], a_k[survive]
-        if sel.size == 0:
-            return StereoMatches.empty(n_cand)
-    # sort by left segment, then decreasing peak height
-    order = np.lexsort((-a_k, li[sel]))
-    sel, a_k = sel[order], a_k[order]
     lsel = li[sel]
-    total = np.bincount(lsel, weights=a_k, minlength=nL)
-    prob = a_k / total[lsel]
 
     # ---------------------------------------------------------------- outputs
     rsel = cand.rj[sel]
@@ -663,7 +571,7 @@ def match_segments(
         disparity_var=uvar_l + uvar_r,
         u_left_var=uvar_l,
         v_var=np.full(disp.shape, sigma_v_px**2),
-        peak_disparity_px=peak_pos[best_peak[sel]],
+        peak_disparity_px=peak_disp,
         peak_height=a_k,
         opposite_polarity=cand.opposite[sel],
     )

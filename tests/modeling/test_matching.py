@@ -3,6 +3,7 @@ the photometric and uniqueness constraints, degenerate input."""
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -252,3 +253,16 @@ def test_uniqueness_drops_the_weaker_certain_claim() -> None:
     pieces = _segments([100.0, 100.0], [(40.0, 110.0), (120.0, 200.0)])
     m2 = match_segments(pieces, right, RIG)
     assert m2.left_index.tolist() == [0, 1]
+
+
+def test_candidates_without_weight_give_no_match() -> None:
+    # the only candidate is of opposite polarity and such pairs weigh nothing: its histogram is
+    # empty, so there is no peak to agree with (an empty result, not an error)
+    left = _segments([100.0], [(40.0, 200.0)])
+    right = dataclasses.replace(
+        _segments([85.0], [(40.0, 200.0)]), polarity=np.array([-1], dtype=np.int8)
+    )
+    assert len(match_candidates(left, right, RIG, max_grey_diff=np.inf)) == 1
+    m = match_segments(left, right, RIG, max_grey_diff=np.inf, opposite_weight=0.0)
+    assert len(m) == 0 and m.n_candidates == 1
+    assert len(match_segments(left, right, RIG, max_grey_diff=np.inf)) == 1
