@@ -1,9 +1,11 @@
-"""Compiled loops of segment matching (:mod:`modeling.matching`): the candidate grid, and the
-decision from the region histograms (peaks, agreement, uniqueness, Eq. 1).
+"""Compiled loops of segment matching (:mod:`modeling.matching`): the candidate grid, the inputs
+and sums of the local histograms, the decision from the region histograms (peaks, agreement,
+uniqueness, Eq. 1) and the output rows.
 
 Each loop computes every value with the same floating-point operations, in the same order, as
-the NumPy expressions it replaces, so the matches are identical; the gain is the few dozen NumPy
-calls per image pair that a few dozen segments cost.
+the NumPy expressions it replaced, so the matches are identical; the gain is the seventy-odd NumPy
+calls per image pair that a few dozen segments cost. The exponentials and the product of the
+region weights with the histograms stay in NumPy (its own ``exp`` and BLAS), between the loops.
 
 Compiled with Numba on first use (:mod:`modeling._jit`); importing this module does not import
 Numba.
@@ -264,3 +266,168 @@ def decide(
         prob[s] = a_k[s] / total[li[sel[s]]]
         peak_disp[s] = peak_pos[best_peak[sel[s]]]
     return sel, a_k, prob, peak_disp
+
+
+@compiled_on_first_call
+def histogram_inputs(
+    disp: np.ndarray,
+    ov: np.ndarray,
+    opposite: np.ndarray,
+    li: np.ndarray,
+    slope_l: np.ndarray,
+    opposite_weight: float,
+    sig_bins: float,
+    radius: int,
+    bin_px: float,
+    norm: float,
+) -> tuple[
+    np.ndarray, np.ndarray, np.ndarray, float, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray
+]:
+    """What the local histograms are made of, for k >= 1 candidates sorted by left segment.
+
+    Args:
+        disp: (k, 2) each candidate's disparity at both ends of its overlap, px.
+        ov: (k,) its overlap, rows.
+        opposite: (k,) whether its polarities are opposite.
+        li: (k,) its left segment.
+        slope_l: (nL,) the left segments' slopes du/dv.
+        opposite_weight: Factor on the weight of an opposite-polarity candidate.
+        sig_bins: Standard deviation of the splat, bins.
+        radius: The splat covers the nearest bin and ``radius`` bins on each side.
+        bin_px: Bin width, px.
+        norm: ``sqrt(2 pi) sig_bins``, the Gaussian's normalisation.
+
+    Returns:
+        ``(d_mid, weight, scale, d_base, nbins, bins, exponent, cand_row, rows)``: mid disparity
+        (k,), length of the overlapping part (k,), splat factor (k,: histogram weight / norm),
+        disparity of bin 0, number of bins, the (k, 2 radius + 1) bins of each splat and the
+        Gaussian's exponent there, the histogram row of each candidate (k,), the left segment
+        of each row (nrow,).
+    """
+    k = li.shape[0]
+    d_mid = np.empty(k)
+    weight = np.empty(k)
+    scale = np.empty(k)
+    d_lo = np.inf
+    d_hi = -np.inf
+    for c in range(k):
+        d = 0.5 * (disp[c, 0] + disp[c, 1])
+        d_mid[c] = d
+        s = slope_l[li[c]]
+        w = ov[c] * np.sqrt(1.0 + s * s)
+        weight[c] = w
+        scale[c] = (opposite_weight * w if opposite[c] else w) / norm
+        d_lo = min(d_lo, d)
+        d_hi = max(d_hi, d)
+    d_base = np.floor(d_lo) - (radius + 2) * bin_px
+    nbins = int(np.ceil((d_hi - d_base) / bin_px)) + radius + 3
+    width = 2 * radius + 1
+    bins = np.empty((k, width), np.int64)
+    exponent = np.empty((k, width))
+    cand_row = np.empty(k, np.int64)
+    rows = np.empty(k, np.int64)
+    row = -1
+    for c in range(k):
+        if c == 0 or li[c] != li[c - 1]:
+            row += 1
+            rows[row] = li[c]
+        cand_row[c] = row
+        x = (d_mid[c] - d_base) / bin_px
+        nearest = np.int64(np.rint(x))
+        for t in range(width):
+            b = nearest + (t - radius)
+            bins[c, t] = b
+            z = (b - x) / sig_bins
+            exponent[c, t] = -0.5 * z * z
+    return d_mid, weight, scale, d_base, nbins, bins, exponent, cand_row, rows[: row + 1]
+
+
+@compiled_on_first_call
+def histograms(
+    gauss: np.ndarray,
+    scale: np.ndarray,
+    bins: np.ndarray,
+    cand_row: np.ndarray,
+    n_rows: int,
+    nbins: int,
+    mid: np.ndarray,
+    sigma_u: float,
+    sigma_v: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each left segment's own histogram, and the exponents of the region weights.
+
+    Args:
+        gauss: (k, w) the Gaussian at each candidate's splat bins.
+        scale: (k,) each candidate's splat factor.
+        bins, cand_row: As :func:`histogram_inputs` returns them.
+        n_rows, nbins: Histogram rows and bins.
+        mid: (n_rows, 2) midpoint of each row's left segment, px.
+        sigma_u, sigma_v: The region Gaussian's standard deviations, px.
+
+    Returns:
+        ``(own, exponent)``: (n_rows, nbins) the splats summed per row, in candidate order;
+        (n_rows, n_rows) the exponent of the Gaussian of the distance between two rows' segments.
+    """
+    own = np.zeros((n_rows, nbins))
+    for c in range(bins.shape[0]):
+        for t in range(bins.shape[1]):
+            own[cand_row[c], bins[c, t]] += gauss[c, t] * scale[c]
+    exponent = np.empty((n_rows, n_rows))
+    for i in range(n_rows):
+        for j in range(n_rows):
+            du = (mid[i, 0] - mid[j, 0]) / sigma_u
+            dv = (mid[i, 1] - mid[j, 1]) / sigma_v
+            exponent[i, j] = -0.5 * (du * du + dv * dv)
+    return own, exponent
+
+
+@compiled_on_first_call
+def match_rows(
+    sel: np.ndarray,
+    li: np.ndarray,
+    rj: np.ndarray,
+    rows_px: np.ndarray,
+    disp: np.ndarray,
+    fit_l: tuple[np.ndarray, ...],
+    var_r: tuple[np.ndarray, ...],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The output rows of the kept candidates ``sel``.
+
+    Args:
+        sel: (m,) the kept candidates.
+        li, rj, rows_px, disp: The candidates' left and right segments, (k,) each, their overlap's
+            first and last row and the disparity there, (k, 2) each.
+        fit_l: The left segments' ``u_center, slope, v_center, point_var, n_points, s_vv`` and
+            ``bias_var`` (:class:`~modeling.segments.ImageSegments`; ``u_at``, ``u_var_at``).
+        var_r: The right segments' ``v_center, point_var, n_points, s_vv, bias_var``.
+
+    Returns:
+        ``(left_index, right_index, left_endpoints, disparity, disparity_var, u_left_var)``:
+        (m,), (m,), (m, 2, 2), (m, 2), (m, 2), (m, 2).
+    """
+    u_l, slope_l, v_l, pvar_l, npts_l, svv_l, bias_l = fit_l
+    v_r, pvar_r, npts_r, svv_r, bias_r = var_r
+    m = sel.shape[0]
+    left_index = np.empty(m, np.int64)
+    right_index = np.empty(m, np.int64)
+    ends = np.empty((m, 2, 2))
+    disparity = np.empty((m, 2))
+    disparity_var = np.empty((m, 2))
+    u_left_var = np.empty((m, 2))
+    for s in range(m):
+        c = sel[s]
+        i, j = li[c], rj[c]
+        left_index[s] = i
+        right_index[s] = j
+        for e in range(2):
+            v = rows_px[c, e]
+            ends[s, e, 0] = u_l[i] + slope_l[i] * (v - v_l[i])
+            ends[s, e, 1] = v
+            dv = v - v_l[i]
+            var_l = pvar_l[i] * (1.0 / npts_l[i] + dv * dv / svv_l[i]) + bias_l[i]
+            dv = v - v_r[j]
+            var_r_ = pvar_r[j] * (1.0 / npts_r[j] + dv * dv / svv_r[j]) + bias_r[j]
+            u_left_var[s, e] = var_l
+            disparity_var[s, e] = var_l + var_r_
+            disparity[s, e] = disp[c, e]
+    return left_index, right_index, ends, disparity, disparity_var, u_left_var

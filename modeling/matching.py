@@ -54,7 +54,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._match_kernel import candidate_grid, decide
+from modeling._match_kernel import candidate_grid, decide, histogram_inputs, histograms, match_rows
 from modeling._validation import FloatArray, positive
 from modeling.rig import StereoRig
 from modeling.segments import ImageSegments
@@ -491,37 +491,32 @@ def match_segments(
         return StereoMatches.empty()
     li = cand.li
     n_cand = int(li.size)
-    d_mid = 0.5 * (cand.disp[:, 0] + cand.disp[:, 1])
-    weight = cand.ov * np.sqrt(1.0 + left.slope[li] ** 2)  # length of the overlapping part, px
-    hist_weight = np.where(cand.opposite, opposite_weight * weight, weight)
 
     # ---------------------------------------------------------------- local histograms
     # each candidate is splatted into its left segment's histogram as a Gaussian of standard
     # deviation smooth_px (evaluated at the bin centres, unit area), over bins that cover the
-    # candidates' disparities with room for the kernel on both sides
+    # candidates' disparities with room for the kernel on both sides; weighted by the length of
+    # its overlapping part (times opposite_weight for opposite polarities)
     sig_bins = smooth_px / _BIN_PX
     radius = max(1, math.ceil(3.0 * sig_bins))
-    d_base = math.floor(float(d_mid.min())) - (radius + 2) * _BIN_PX
-    nbins = math.ceil((float(d_mid.max()) - d_base) / _BIN_PX) + radius + 3
-    x = (d_mid - d_base) / _BIN_PX
-    bins = np.rint(x).astype(np.int64)[:, None] + np.arange(-radius, radius + 1)
-    z = (bins - x[:, None]) / sig_bins
-    splat = np.exp(-0.5 * z * z) * (hist_weight / (math.sqrt(2.0 * math.pi) * sig_bins))[:, None]
-    # rows of the histogram: the left segments with candidates (li is sorted)
-    new_row = np.empty(n_cand, dtype=bool)
-    new_row[0] = True
-    np.not_equal(li[1:], li[:-1], out=new_row[1:])
-    r = new_row.cumsum() - 1
-    rows = li[new_row]
+    d_mid, weight, scale, d_base, nbins, bins, exponent, r, rows = histogram_inputs(
+        cand.disp,
+        cand.ov,
+        cand.opposite,
+        li,
+        left.slope,
+        float(opposite_weight),
+        float(sig_bins),
+        radius,
+        _BIN_PX,
+        math.sqrt(2.0 * math.pi) * sig_bins,
+    )
     nrow = rows.size
-    C = np.bincount(
-        (bins + (r * nbins)[:, None]).ravel(), weights=splat.ravel(), minlength=nrow * nbins
-    ).reshape(nrow, nbins)
     ends = left.endpoints[rows]
-    mid = 0.5 * (ends[:, 0] + ends[:, 1])
-    du = (mid[:, None, 0] - mid[:, 0]) / su
-    dv = (mid[:, None, 1] - mid[:, 1]) / sv
-    Wreg = np.exp(-0.5 * (du * du + dv * dv))
+    C, region_exponent = histograms(
+        np.exp(exponent), scale, bins, r, nrow, nbins, 0.5 * (ends[:, 0] + ends[:, 1]), su, sv
+    )
+    Wreg = np.exp(region_exponent)
     Wreg.flat[:: nrow + 1] = self_weight
     Hist = Wreg @ C
 
@@ -548,19 +543,23 @@ def match_segments(
     )
     if sel.size == 0:
         return StereoMatches.empty(n_cand)
-    lsel = li[sel]
-
-    # ---------------------------------------------------------------- outputs
-    rsel = cand.rj[sel]
-    v_ends = cand.rows[sel]
-    lcol = lsel[:, None]
-    u_ends = left.u_at(lcol, v_ends)
-    uvar_l = left.u_var_at(lcol, v_ends)
-    uvar_r = right.u_var_at(rsel[:, None], v_ends)
-    disp = cand.disp[sel]
-    left_endpoints = np.empty((sel.size, 2, 2))
-    left_endpoints[..., 0] = u_ends
-    left_endpoints[..., 1] = v_ends
+    lsel, rsel, left_endpoints, disp, disp_var, uvar_l = match_rows(
+        sel,
+        li,
+        cand.rj,
+        cand.rows,
+        cand.disp,
+        (
+            left.u_center,
+            left.slope,
+            left.v_center,
+            left.point_var,
+            left.n_points,
+            left.s_vv,
+            left.bias_var,
+        ),
+        (right.v_center, right.point_var, right.n_points, right.s_vv, right.bias_var),
+    )
     return StereoMatches._trusted(
         n_cand,
         left_index=lsel,
@@ -568,7 +567,7 @@ def match_segments(
         probability=prob,
         left_endpoints=left_endpoints,
         disparity_px=disp,
-        disparity_var=uvar_l + uvar_r,
+        disparity_var=disp_var,
         u_left_var=uvar_l,
         v_var=np.full(disp.shape, sigma_v_px**2),
         peak_disparity_px=peak_disp,
