@@ -28,11 +28,11 @@ in :func:`modeling.pipeline.stereo_to_floor`).
 
 from __future__ import annotations
 
-import itertools
 from typing import Any
 
 import numpy as np
 
+from modeling._face_kernel import face_joins
 from modeling._validation import positive
 from modeling.observation import FloorObservation, FloorSegment
 from modeling.segments import ImageSegments
@@ -131,55 +131,26 @@ def face_pairs(
     ends_img = left.endpoints[src]  # (c, 2, 2): top, bottom end in the image
     out: list[tuple[int, int, int]] = []
     for end in (1, 0) if tops else (1,):
-        # the pairs of eligible segments (a handful: a Python loop is cheapest)
-        if end == 1:
-            pairs = list(itertools.combinations(np.flatnonzero(reach_floor).tolist(), 2))
-        else:
-            pairs = [
-                (i, j)
-                for i, j in itertools.combinations(np.flatnonzero(top_seen).tolist(), 2)
-                if abs(top_h[i] - top_h[j]) <= top_match_m
-            ]
-        if not pairs:
-            continue
-        a, b = np.array(pairs, dtype=np.int64).T
-        d_floor = floor_pts[b, end] - floor_pts[a, end]
-        short = np.hypot(d_floor[:, 0], d_floor[:, 1]) <= max_length_m
-        # the image ends, moved along their edges by ``extend_px`` past the last edge point
-        # (the fit stops short of a corner: the rows next to it are trimmed or blurred)
-        step = (1.0 if end == 1 else -1.0) * extend_px
-        P = ends_img[a, end]
-        P[:, 0] += step * slope[a]
-        P[:, 1] += step
-        D = ends_img[b, end]
-        D[:, 0] += step * slope[b]
-        D[:, 1] += step
-        D -= P
-        L2 = D[:, 0] * D[:, 0] + D[:, 1] * D[:, 1]
-        keep = np.flatnonzero(short & (L2 >= 1.0))
-        if keep.shape[0] == 0:
-            continue
-        a, b, P, D, L2 = a[keep], b[keep], P[keep], D[keep], L2[keep]
-        # each line's two ends against each pair's image line: offset across it and parameter
-        rx = hor[None, :, :, 0] - P[:, None, None, 0]  # (q, k, 2 ends)
-        ry = hor[None, :, :, 1] - P[:, None, None, 1]
-        dx, dy = D[:, None, None, 0], D[:, None, None, 1]
-        inv = (1.0 / L2)[:, None, None]
-        near = (np.abs(dx * ry - dy * rx) <= tol_px * np.sqrt(L2)[:, None, None]).all(axis=2)
-        has = np.flatnonzero(near.any(axis=1))  # pairs with some line along them
-        if has.shape[0] == 0:
-            continue
-        a, b, near = a[has], b[has], near[has]
-        along = (dx[has] * rx[has] + dy[has] * ry[has]) * inv[has]
-        t0 = along.min(axis=2).clip(0.0, 1.0)
-        t1 = along.max(axis=2).clip(0.0, 1.0)
-        for q in range(a.shape[0]):
-            lines = np.flatnonzero(near[q])
-            if _covered(t0[q, lines].tolist(), t1[q, lines].tolist()) >= min_cover:
-                i, j = int(cand[a[q]]), int(cand[b[q]])
-                if ends_img[a[q], end, 0] > ends_img[b[q], end, 0]:
-                    i, j = j, i
-                out.append((i, j, end))
+        # every pair of eligible edges (bottoms: both reach the floor; tops: both seen, at equal
+        # heights), short enough on the floor, whose image ends a horizontal line joins (one
+        # compiled pass: ``_face_kernel.face_joins``)
+        first, second = face_joins(
+            np.flatnonzero(reach_floor if end == 1 else top_seen),
+            end,
+            top_h,
+            float(top_match_m),
+            floor_pts,
+            ends_img,
+            slope,
+            hor,
+            (1.0 if end == 1 else -1.0) * extend_px,
+            float(max_length_m),
+            float(tol_px),
+            float(min_cover),
+        )
+        out.extend(
+            (i, j, end) for i, j in zip(cand[first].tolist(), cand[second].tolist(), strict=True)
+        )
     return out
 
 
@@ -228,15 +199,3 @@ def close_faces(
         fov_rad=floor.fov_rad,
         max_range_m=floor.max_range_m,
     )
-
-
-def _covered(starts: list[float], stops: list[float]) -> float:
-    """Length of the union of the intervals ``[starts[k], stops[k]]`` (a few: plain Python)."""
-    total, lo, hi = 0.0, 0.0, -1.0
-    for s0, s1 in sorted(zip(starts, stops, strict=True)):
-        if s0 > hi:  # a new run
-            total += max(hi - lo, 0.0)
-            lo, hi = s0, s1
-        else:
-            hi = max(hi, s1)
-    return total + max(hi - lo, 0.0)
