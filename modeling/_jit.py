@@ -2,7 +2,9 @@
 
 ``import modeling`` does not import Numba (it costs about half a second); each loop is compiled,
 or loaded from Numba's on-disk cache (next to the source), the first time it is called, with the
-interpreter lock released while it runs.
+interpreter lock released while it runs, and NumPy's floating-point semantics (``error_model
+"numpy"``: a division by zero gives an infinity or a NaN, as in the NumPy expressions the loops
+replace, instead of raising ``ZeroDivisionError``).
 
 A loop may call scalar helpers of its own module marked with :func:`compiled_helper`: when the
 first loop of a module is compiled, its helpers are compiled too and replace the plain functions
@@ -19,6 +21,7 @@ from typing import Any, TypeVar
 F = TypeVar("F", bound=Callable[..., Any])
 
 _HELPER = "_compiled_helper"
+_OPTIONS: dict[str, Any] = {"cache": True, "nogil": True, "error_model": "numpy"}
 _COMPILING = threading.RLock()  # one thread makes the dispatchers (and replaces the helpers)
 
 
@@ -33,7 +36,7 @@ def _compile_helpers(namespace: dict[str, Any]) -> None:
 
     for name, obj in list(namespace.items()):
         if getattr(obj, _HELPER, False) and not isinstance(obj, numba.core.dispatcher.Dispatcher):
-            namespace[name] = numba.njit(cache=True, nogil=True)(obj)
+            namespace[name] = numba.njit(**_OPTIONS)(obj)
 
 
 def compiled_on_first_call(fn: F) -> F:
@@ -50,7 +53,7 @@ def compiled_on_first_call(fn: F) -> F:
                     import numba
 
                     _compile_helpers(fn.__globals__)
-                    compiled = numba.njit(cache=True, nogil=True)(fn)
+                    compiled = numba.njit(**_OPTIONS)(fn)
         return compiled(*args)
 
     return call  # type: ignore[return-value]

@@ -33,6 +33,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from modeling._tri_kernel import floor_rows
 from modeling._validation import FloatArray
 from modeling.matching import StereoMatches
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
@@ -190,115 +191,44 @@ def triangulate_to_floor(
     if not (0.0 <= min_probability < 1.0):
         raise ValueError(f"min_probability must be in [0, 1), got {min_probability!r}")
     # usable rows: probable enough, in front of the camera (positive disparity), finite (a NaN or
-    # an infinity anywhere in a row makes the row's sum non-finite)
-    d_all = matches.disparity_px
-    row_sum = (
-        d_all.sum(axis=1)
-        + matches.left_endpoints.sum(axis=(1, 2))
-        + matches.u_left_var.sum(axis=1)
-        + matches.disparity_var.sum(axis=1)
-    )
-    idx = np.flatnonzero(
-        (matches.probability >= min_probability) & (d_all.min(axis=1) > 0) & np.isfinite(row_sum)
-    )
-    if idx.size == 0:
-        return _observation((), (), rig, head_pose)
-    v_e = matches.left_endpoints[idx, :, 1]  # (k, 2) rows of the two ends
-    d_e = d_all[idx]
-    b = rig.baseline_m
-    H = head_pose.height_m
-    cy = rig.cy_px
-    assert rig.cx_px is not None and cy is not None
-
-    # --- clip to the height band: along the segment (t in [0, 1] from the top end) the row and the
+    # an infinity anywhere in a row makes the row's sum non-finite).
+    # Clipped to the height band: along the segment (t in [0, 1] from the top end) the row and the
     # disparity are affine, so the height h(t) = H - (v(t) - cy) b / d(t) is monotonic and crosses a
-    # given height at t = (k d0 - (v0 - cy) b) / (dv b - k dd), k = H - height; both band edges
-    # (columns: max_height_m, min_height_m) at once
-    v0, d0 = v_e[:, 0], d_e[:, 0]
-    dv = v_e[:, 1] - v0
-    dd = d_e[:, 1] - d0
-    k_band = np.array([H - max_height_m, H - min_height_m])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        h = H - (v_e - cy) * b / d_e  # (k, 2) heights of the two ends
-        t_band = (k_band * d0[:, None] - ((v0 - cy) * b)[:, None]) / (
-            (dv * b)[:, None] - k_band * dd[:, None]
-        )
-    h0, h1 = h[:, 0], h[:, 1]
-    falling = h0 >= h1  # the usual case: the height drops as the row increases
-    # the band edge each end leaves through: the higher end (the top one of a falling segment)
-    # through max_height_m, the lower one through min_height_m; an end beyond its edge is moved
-    # to the crossing, the others stay at t = 0 and 1
-    via_top = falling[:, None] == np.array([True, False])  # (k, 2)
-    outside = np.where(via_top, h > max_height_m, h < min_height_m)
-    T = np.where(outside, np.where(via_top, t_band[:, :1], t_band[:, 1:]), (0.0, 1.0))
-    T = np.minimum(np.maximum(T, 0.0), 1.0)
-    finite = np.isfinite(h) & np.isfinite(T)
-    alive = (
-        finite[:, 0]
-        & finite[:, 1]
-        & (np.maximum(h0, h1) >= min_height_m)
-        & (np.minimum(h0, h1) <= max_height_m)
-        & ((T[:, 1] > T[:, 0]) | (dv <= 0))
+    # given height at t = (k d0 - (v0 - cy) b) / (dv b - k dd), k = H - height; the higher end
+    # (the top one of a falling segment) leaves through max_height_m, the lower one through
+    # min_height_m; an end beyond its edge is moved to the crossing, the others stay at t = 0 and 1.
+    # Then (u, d) -> camera (X, Z) = ((u - cx) b / d, f b / d) with J = [[b/d, -X/d], [0, -Z/d]]
+    # on (u, d) and S = [[var_u, var_u], [var_u, var_d]] (cov(u, d) = var u_left since
+    # d = u_left - u_right); v only moves Y, the height, which the floor does not see. Camera
+    # (X, Z) -> world (x, y) of a level head: x = x0 + s X + c Z, y = y0 - c X + s Z. A degenerate
+    # covariance (zero variances) is not a normal distribution: such rows are dropped. All in one
+    # compiled pass (``_tri_kernel.floor_rows``), rows grouped by left segment, the most probable
+    # candidate first.
+    assert rig.cx_px is not None and rig.cy_px is not None
+    xy, cov, heights, left_idx, gp = floor_rows(
+        matches.probability,
+        matches.left_index,
+        matches.left_endpoints,
+        matches.disparity_px,
+        matches.u_left_var,
+        matches.disparity_var,
+        float(min_probability),
+        float(min_height_m),
+        float(max_height_m),
+        (float(rig.baseline_m), float(rig.cx_px), float(rig.cy_px), float(rig.fb)),
+        (
+            float(head_pose.x_m),
+            float(head_pose.y_m),
+            float(head_pose.height_m),
+            math.cos(head_pose.heading_rad),
+            math.sin(head_pose.heading_rad),
+        ),
     )
-    sel = np.flatnonzero(alive)
-    if sel.size == 0:
-        return _observation((), (), rig, head_pose)
-    idx = idx[sel]
-    T = T[sel]  # (k, 2)
-    # the (k, 2) end values of u, v, d, var u and var d as one (5, k, 2) block, moved to the
-    # clipped ends in one interpolation
-    ends = matches.left_endpoints[idx]
-    block = np.stack(
-        [
-            ends[:, :, 0],
-            ends[:, :, 1],
-            d_all[idx],
-            matches.u_left_var[idx],
-            matches.disparity_var[idx],
-        ]
-    )
-    u, v, d, var_u, var_d = block[:, :, :1] + (block[:, :, 1:] - block[:, :, :1]) * T
-    # (u, d) -> camera (X, Z); v only moves Y, the height, which the floor does not see
-    inv_d = 1.0 / d
-    bd = b * inv_d
-    X = (u - rig.cx_px) * bd
-    Z = rig.fb * inv_d
-    xd = X * inv_d
-    zd = Z * inv_d
-    # J = [[b/d, -X/d], [0, -Z/d]] on (u, d); S = [[var_u, var_u], [var_u, var_d]] (cov(u, d) =
-    # var u_left since d = u_left - u_right)
-    s_xx = bd * bd * var_u - 2.0 * bd * xd * var_u + xd * xd * var_d
-    s_xz = -bd * zd * var_u + xd * zd * var_d
-    s_zz = zd * zd * var_d
-    # camera (X, Z) -> world (x, y) of a level head: x = x0 + s X + c Z, y = y0 - c X + s Z
-    c, s = math.cos(head_pose.heading_rad), math.sin(head_pose.heading_rad)
-    xy = np.empty((*u.shape, 2))
-    xy[..., 0] = head_pose.x_m + s * X + c * Z
-    xy[..., 1] = head_pose.y_m - c * X + s * Z
-    cov = np.empty((*u.shape, 2, 2))
-    cov[..., 0, 0] = s * s * s_xx + 2.0 * s * c * s_xz + c * c * s_zz
-    cov[..., 1, 1] = c * c * s_xx - 2.0 * s * c * s_xz + s * s * s_zz
-    cov[..., 0, 1] = cov[..., 1, 0] = -s * c * s_xx + (s * s - c * c) * s_xz + s * c * s_zz
-    heights = H - (v - cy) * bd
-    det = cov[..., 0, 0] * cov[..., 1, 1] - cov[..., 0, 1] ** 2
-    # finite by construction (finite inputs, d > 0); a degenerate covariance (zero variances) is
-    # not a normal distribution: such rows are dropped
-    ok = (cov[..., 0, 0] > 0) & (det > 0)
-    good = np.flatnonzero(ok[:, 0] & ok[:, 1])
-    if good.size == 0:
-        return _observation((), (), rig, head_pose)
-    # group the rows of each left segment, the most probable candidate first
-    left_idx = matches.left_index[idx[good]]
-    prob = matches.probability[idx[good]]
-    order = np.lexsort((-prob, left_idx))
-    rows = good[order]
-    gp = prob[order]
     # the rows in output order, read-only; each segment holds views of one row of these
-    xy, cov, heights = xy[rows], cov[rows], heights[rows]
     for arr in (xy, cov, heights):
         arr.setflags(write=False)
     xy_l, cov_l, h_l = list(xy), list(cov), list(heights)
-    gl_l = left_idx[order].tolist()
+    gl_l = left_idx.tolist()
     segments: list[FloorSegment] = []
     ambiguous: list[AmbiguousSegment] = []
     n = len(gl_l)

@@ -1,0 +1,148 @@
+"""Compiled loop of :func:`modeling.triangulation.triangulate_to_floor`: the usable matches
+clipped to the height band and triangulated to the floor with their covariances.
+
+It computes every value with the same floating-point operations, in the same order, as the NumPy
+expressions it replaced, so the floor segments are identical.
+
+Compiled with Numba on first use (:mod:`modeling._jit`); importing this module does not import
+Numba.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from modeling._jit import compiled_helper, compiled_on_first_call
+
+
+@compiled_helper
+def _clamp01(t: float) -> float:
+    """``t`` limited to [0, 1]; NaN stays NaN (as ``np.minimum(np.maximum(t, 0), 1)``)."""
+    if t != t:
+        return t
+    return min(max(t, 0.0), 1.0)
+
+
+@compiled_on_first_call
+def floor_rows(
+    probability: np.ndarray,
+    left_index: np.ndarray,
+    ends: np.ndarray,
+    disparity: np.ndarray,
+    u_var: np.ndarray,
+    d_var: np.ndarray,
+    min_probability: float,
+    min_height_m: float,
+    max_height_m: float,
+    rig: tuple[float, float, float, float],
+    head: tuple[float, float, float, float, float],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The floor points of the usable matches, grouped by left segment.
+
+    Args:
+        probability, left_index: (m,) each match's probability and left segment.
+        ends: (m, 2, 2) its left-image endpoints ``(u, v)``, top first, px.
+        disparity, u_var, d_var: (m, 2) the disparity, the variance of the left column and of
+            the disparity at both ends.
+        min_probability, min_height_m, max_height_m: As ``triangulate_to_floor``.
+        rig: ``(baseline_m, cx_px, cy_px, fb)`` of the rig.
+        head: ``(x_m, y_m, height_m, cos heading, sin heading)`` of the head.
+
+    Returns:
+        ``(xy, cov, heights, left, prob)``: (n, 2, 2) floor endpoints, (n, 2, 2, 2) their
+        covariances, (n, 2) their heights, (n,) the left segment and probability of each row,
+        sorted by left segment, then decreasing probability (stable).
+    """
+    b, cx, cy, fb = rig
+    x0, y0, H, c, s = head
+    m = probability.shape[0]
+    k_top = H - max_height_m
+    k_bottom = H - min_height_m
+    xy = np.empty((m, 2, 2))
+    cov = np.empty((m, 2, 2, 2))
+    heights = np.empty((m, 2))
+    kept = np.empty(m, np.int64)
+    n = 0
+    t = np.empty(2)
+    for r in range(m):
+        # usable: probable enough, in front of the camera, finite
+        row_sum = (
+            (disparity[r, 0] + disparity[r, 1])
+            + (((ends[r, 0, 0] + ends[r, 0, 1]) + ends[r, 1, 0]) + ends[r, 1, 1])
+            + (u_var[r, 0] + u_var[r, 1])
+            + (d_var[r, 0] + d_var[r, 1])
+        )
+        if not (
+            probability[r] >= min_probability
+            and min(disparity[r, 0], disparity[r, 1]) > 0
+            and np.isfinite(row_sum)
+        ):
+            continue
+        # clip to the height band (see triangulate_to_floor)
+        v0, v1 = ends[r, 0, 1], ends[r, 1, 1]
+        d0, d1 = disparity[r, 0], disparity[r, 1]
+        dv = v1 - v0
+        dd = d1 - d0
+        h0 = H - (v0 - cy) * b / d0
+        h1 = H - (v1 - cy) * b / d1
+        t_top = (k_top * d0 - (v0 - cy) * b) / (dv * b - k_top * dd)
+        t_bottom = (k_bottom * d0 - (v0 - cy) * b) / (dv * b - k_bottom * dd)
+        falling = h0 >= h1
+        # end 0 leaves through the top edge of a falling segment, end 1 through the bottom one
+        if falling:
+            t[0] = _clamp01(t_top if h0 > max_height_m else 0.0)
+            t[1] = _clamp01(t_bottom if h1 < min_height_m else 1.0)
+        else:
+            t[0] = _clamp01(t_bottom if h0 < min_height_m else 0.0)
+            t[1] = _clamp01(t_top if h1 > max_height_m else 1.0)
+        if not (
+            np.isfinite(h0)
+            and np.isfinite(h1)
+            and np.isfinite(t[0])
+            and np.isfinite(t[1])
+            and max(h0, h1) >= min_height_m
+            and min(h0, h1) <= max_height_m
+            and (t[1] > t[0] or dv <= 0)
+        ):
+            continue
+        ok = True
+        for e in range(2):
+            te = t[e]
+            u = ends[r, 0, 0] + (ends[r, 1, 0] - ends[r, 0, 0]) * te
+            v = v0 + (v1 - v0) * te
+            d = d0 + (d1 - d0) * te
+            var_u = u_var[r, 0] + (u_var[r, 1] - u_var[r, 0]) * te
+            var_d = d_var[r, 0] + (d_var[r, 1] - d_var[r, 0]) * te
+            # (u, d) -> camera (X, Z) with J S J^T, then the level head's rotation to the world
+            inv_d = 1.0 / d
+            bd = b * inv_d
+            X = (u - cx) * bd
+            Z = fb * inv_d
+            xd = X * inv_d
+            zd = Z * inv_d
+            s_xx = bd * bd * var_u - 2.0 * bd * xd * var_u + xd * xd * var_d
+            s_xz = -bd * zd * var_u + xd * zd * var_d
+            s_zz = zd * zd * var_d
+            xy[n, e, 0] = x0 + s * X + c * Z
+            xy[n, e, 1] = y0 - c * X + s * Z
+            c00 = s * s * s_xx + 2.0 * s * c * s_xz + c * c * s_zz
+            c11 = c * c * s_xx - 2.0 * s * c * s_xz + s * s * s_zz
+            c01 = -s * c * s_xx + (s * s - c * c) * s_xz + s * c * s_zz
+            cov[n, e, 0, 0] = c00
+            cov[n, e, 0, 1] = c01
+            cov[n, e, 1, 0] = c01
+            cov[n, e, 1, 1] = c11
+            heights[n, e] = H - (v - cy) * bd
+            # a degenerate covariance is not a normal distribution: the row is dropped
+            if not (c00 > 0 and c00 * c11 - c01 * c01 > 0):
+                ok = False
+        if ok:
+            kept[n] = r
+            n += 1
+    kept = kept[:n]
+    prob = probability[kept]
+    left = left_index[kept]
+    # by left segment, then decreasing probability (two stable sorts, minor key first)
+    order = np.argsort(-prob, kind="mergesort")
+    order = order[np.argsort(left[order], kind="mergesort")]
+    return xy[:n][order], cov[:n][order], heights[:n][order], left[order], prob[order]
