@@ -105,6 +105,20 @@ def test_height_band_drops_and_clips() -> None:
     np.testing.assert_allclose(tight.segments[0].height_m, [0.5, 0.3], atol=1e-9)
 
 
+def test_a_point_match_crosses_no_band_edge_and_nothing_raises() -> None:
+    # both ends of a row at one image point: the band crossing t = (k d0 - (v0 - cy) b) /
+    # (dv b - k dd) divides by zero (dv = dd = 0); above the band it is dropped, inside it is kept
+    # as a point at its height
+    Z = 3.0
+    d = RIG.fb / Z
+    v_of = lambda h: RIG.focal_px * (0.8 - h) / Z + RIG.cy_px  # noqa: E731
+    rows = [(0, 1.0, 200.0, v_of(1.5), v_of(1.5), d), (1, 1.0, 200.0, v_of(0.4), v_of(0.4), d)]
+    obs = triangulate_to_floor(_matches(rows), RIG, POSE)
+    assert [s.source for s in obs.segments] == [1]
+    np.testing.assert_allclose(obs.segments[0].height_m, [0.4, 0.4], atol=1e-9)
+    np.testing.assert_array_equal(obs.segments[0].endpoints[0], obs.segments[0].endpoints[1])
+
+
 def test_ambiguous_candidates_and_renormalisation() -> None:
     u = 200.0
     v0 = RIG.focal_px * (0.8 - 0.9) / 2.0 + RIG.cy_px
