@@ -207,3 +207,94 @@ def segment_fits(
         for c in range(5):
             fit[10 + c, s] = sums[s, 6 + c] / safe_n
     return fit, ok
+
+
+@compiled_on_first_call
+def detected_lines(
+    lines: np.ndarray,
+    counts: np.ndarray,
+    height: int,
+    min_length_px: float,
+    sin_min: float,
+    trim_px: int,
+) -> tuple[
+    np.ndarray,
+    np.ndarray,
+    np.ndarray,
+    np.ndarray,
+    np.ndarray,
+    np.ndarray,
+    np.ndarray,
+    np.ndarray,
+]:
+    """The detected lines of the stacked images sorted into near-horizontal ones and the
+    near-vertical ones to fit.
+
+    Args:
+        lines: (N, 4) ``x0, y0, x1, y1`` of the detected lines, image after image, px.
+        counts: (n_images,) how many lines each image has.
+        height: Rows per image.
+        min_length_px: Shortest line kept, px.
+        sin_min: A line is near-horizontal where its rise is below ``sin_min`` of its length.
+        trim_px: Rows left out at both ends of a line's row range.
+
+    Returns:
+        ``(horizontal, horizontal_count, image_of, x0, y0, inv_slope, r0, r1)``: the
+        near-horizontal lines (h, 2, 2), left end first, image after image, and how many each
+        image has (n_images,); for each line to fit (top end first, at least ``min_length_px``
+        long, rising by at least ``sin_min`` of its length, crossing three rows or more after the
+        trim): its image, top end, du/dv, and first and last row to search (within the image).
+    """
+    n = lines.shape[0]
+    horizontal = np.empty((n, 2, 2))
+    horizontal_count = np.zeros(counts.shape[0], np.int64)
+    image_of = np.empty(n, np.int64)
+    x0_out = np.empty(n)
+    y0_out = np.empty(n)
+    inv_slope = np.empty(n)
+    r0_out = np.empty(n, np.int64)
+    r1_out = np.empty(n, np.int64)
+    h = 0
+    m = 0
+    line = 0
+    for image in range(counts.shape[0]):
+        for _ in range(counts[image]):
+            x0, y0, x1, y1 = lines[line, 0], lines[line, 1], lines[line, 2], lines[line, 3]
+            line += 1
+            if y0 > y1:  # top end first
+                x0, y0, x1, y1 = x1, y1, x0, y0
+            dv = y1 - y0
+            length = np.hypot(x1 - x0, dv)
+            if not length >= min_length_px:
+                continue
+            if dv < sin_min * length:
+                if x0 > x1:  # left end first
+                    horizontal[h, 0, 0], horizontal[h, 0, 1] = x1, y1
+                    horizontal[h, 1, 0], horizontal[h, 1, 1] = x0, y0
+                else:
+                    horizontal[h, 0, 0], horizontal[h, 0, 1] = x0, y0
+                    horizontal[h, 1, 0], horizontal[h, 1, 1] = x1, y1
+                horizontal_count[image] += 1
+                h += 1
+                continue
+            r0 = max(np.int64(np.ceil(y0)) + trim_px, 1)
+            r1 = min(np.int64(np.floor(y1)) - trim_px, height - 2)
+            if not (dv > 0 and r1 >= r0 + 2):
+                continue
+            image_of[m] = image
+            x0_out[m] = x0
+            y0_out[m] = y0
+            inv_slope[m] = (x1 - x0) / dv
+            r0_out[m] = r0
+            r1_out[m] = r1
+            m += 1
+    return (
+        horizontal[:h],
+        horizontal_count,
+        image_of[:m],
+        x0_out[:m],
+        y0_out[:m],
+        inv_slope[:m],
+        r0_out[:m],
+        r1_out[:m],
+    )

@@ -53,7 +53,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._edge_kernel import edge_sums, segment_fits
+from modeling._edge_kernel import detected_lines, edge_sums, segment_fits
 from modeling._validation import FloatArray, keyword_options, positive
 from modeling._worker import worker
 
@@ -425,35 +425,23 @@ def _fit(
     sigma_px, bias_sigma_px, min_length_px, min_angle_deg, min_gradient = opts[:5]
     search_px, trim_px, side_px, near_px = opts.search_px, opts.trim_px, opts.side_px, opts.near_px
     n_img = len(images)
-    lines = np.concatenate(detected)  # a copy: reordered in place below
-    image_of = np.repeat(np.arange(n_img), [len(d) for d in detected])
-    if lines.shape[0] == 0:
+    if sum(len(d) for d in detected) == 0:
         return [ImageSegments.empty(shape) for _ in images]
-    # order each segment top -> bottom
-    swap = lines[:, 1] > lines[:, 3]
-    lines[swap] = lines[swap][:, [2, 3, 0, 1]]
-    x0, y0, x1, y1 = lines.T
-    dv = y1 - y0
-    length = np.hypot(x1 - x0, dv)
-    sin_min = math.sin(math.radians(min_angle_deg))
-    # the near-horizontal lines, left end first, as detected
-    is_hor = (length >= min_length_px) & (dv < sin_min * length)
-    hor = lines[is_hor].reshape(-1, 2, 2)
-    flip = hor[:, 0, 0] > hor[:, 1, 0]
-    hor[flip] = hor[flip, ::-1]
-    hor_of = image_of[is_hor]
-    horizontal = [hor[hor_of == k] for k in range(n_img)]
-    # rows each segment crosses (trimmed at both ends)
-    r0 = np.maximum(np.ceil(y0).astype(np.int64) + trim_px, 1)
-    r1 = np.minimum(np.floor(y1).astype(np.int64) - trim_px, H - 2)
-    keep = np.flatnonzero(
-        (length >= min_length_px) & (dv > 0) & (dv >= sin_min * length) & (r1 >= r0 + 2)
+    # each line top end first; the near-horizontal ones (left end first) apart; the rows each
+    # other one crosses, trimmed at both ends (``_edge_kernel.detected_lines``)
+    hor, hor_count, image_of, x0, y0, inv_slope, r0, r1 = detected_lines(
+        np.concatenate(detected),
+        np.array([len(d) for d in detected], dtype=np.int64),
+        H,
+        float(min_length_px),
+        math.sin(math.radians(min_angle_deg)),
+        int(trim_px),
     )
-    nseg = keep.size
-    if nseg == 0:
+    bounds = np.concatenate(([0], np.cumsum(hor_count))).tolist()
+    horizontal = [hor[bounds[k] : bounds[k + 1]] for k in range(n_img)]
+    if x0.size == 0:
         return [ImageSegments.empty(shape, horizontal=h) for h in horizontal]
-    x0, y0, r0, r1, image_of = x0[keep], y0[keep], r0[keep], r1[keep], image_of[keep]
-    inv_slope = (x1[keep] - x0) / dv[keep]  # du/dv of the LSD line
+    sin_min = math.sin(math.radians(min_angle_deg))
 
     # edge points, one per row (the compiled loop of ``_edge_kernel``), summed per segment; the
     # pixel block around the LSD line covers the search window, the peak's neighbours and the
