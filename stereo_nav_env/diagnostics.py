@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._jit import compiled_on_first_call
+from modeling._jit import compiled_helper, compiled_on_first_call
 from modeling.faces import FACE_SOURCE
 from modeling.model import EnvironmentModel
 from stereo_nav_env.scenes import Scene
@@ -67,8 +67,6 @@ DIAGNOSTIC_NAMES = (
 )
 _CHI2_2_99 = 9.2103
 _GAP_SLACK_M = 0.1
-_SLACK_COV = _GAP_SLACK_M**2 * np.eye(2)  # the slack as an isotropic covariance, m^2
-_SLACK_COV.setflags(write=False)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
@@ -214,14 +212,62 @@ def _active_items(model: EnvironmentModel) -> NDArray[np.bool_]:
     return out
 
 
-def _near(points: FloatArray, cov: FloatArray, target: FloatArray) -> NDArray[np.bool_]:
-    """Whether each point (r, 2) with covariance (r, 2, 2) is within chi^2_2(0.99) of target."""
-    c = cov + _SLACK_COV
-    d = points - target
-    det = c[:, 0, 0] * c[:, 1, 1] - c[:, 0, 1] * c[:, 1, 0]
-    dx, dy = d[:, 0], d[:, 1]
-    m2 = c[:, 1, 1] * dx**2 - 2 * c[:, 0, 1] * dx * dy + c[:, 0, 0] * dy**2
-    return m2 / det <= _CHI2_2_99
+@compiled_on_first_call
+def _gap_minima(
+    gap_points: FloatArray,
+    gaps: NDArray[np.int64],
+    point_i: FloatArray,
+    cov_i: FloatArray,
+    point_j: FloatArray,
+    cov_j: FloatArray,
+    rel_i: NDArray[np.int64],
+    rel_j: NDArray[np.int64],
+    p_passable: FloatArray,
+    active: NDArray[np.bool_],
+    slack: float,
+    limit: float,
+) -> FloatArray:
+    """(len(gaps), S): for each gap, per situation, the least ``p_passable`` of the relations
+    present in it whose two closest points lie at the gap's two sides (``inf``: none).
+
+    A point (with its covariance plus ``slack`` on the diagonal) lies at a true point when its
+    squared Mahalanobis distance is at most ``limit``; a relation matches a gap either way round.
+    """
+    n_sit = active.shape[0]
+    out = np.full((gaps.shape[0], n_sit), np.inf)
+    for g in range(gaps.shape[0]):
+        ax, ay = gap_points[gaps[g], 0, 0], gap_points[gaps[g], 0, 1]
+        bx, by = gap_points[gaps[g], 1, 0], gap_points[gaps[g], 1, 1]
+        for r in range(rel_i.shape[0]):
+            forward = _near(point_i[r], cov_i[r], ax, ay, slack, limit) and _near(
+                point_j[r], cov_j[r], bx, by, slack, limit
+            )
+            if not forward and not (
+                _near(point_i[r], cov_i[r], bx, by, slack, limit)
+                and _near(point_j[r], cov_j[r], ax, ay, slack, limit)
+            ):
+                continue
+            for k in range(n_sit):
+                if active[k, rel_i[r]] and active[k, rel_j[r]]:
+                    out[g, k] = min(out[g, k], p_passable[r])
+    return out
+
+
+@compiled_helper
+def _near(
+    point: FloatArray, cov: FloatArray, tx: float, ty: float, slack: float, limit: float
+) -> bool:
+    """Whether ``point`` (2,) with covariance ``cov`` (2, 2) plus ``slack`` on its diagonal is
+    within squared Mahalanobis distance ``limit`` of ``(tx, ty)``."""
+    c00 = cov[0, 0] + slack
+    c01 = cov[0, 1] + 0.0
+    c10 = cov[1, 0] + 0.0
+    c11 = cov[1, 1] + slack
+    dx = point[0] - tx
+    dy = point[1] - ty
+    det = c00 * c11 - c01 * c10
+    m2 = c11 * (dx * dx) - 2 * c01 * dx * dy + c00 * (dy * dy)
+    return m2 / det <= limit
 
 
 def _gap_figures(model: EnvironmentModel, truth: GroundTruth) -> dict[str, float]:
@@ -238,25 +284,29 @@ def _gap_figures(model: EnvironmentModel, truth: GroundTruth) -> dict[str, float
     if not np.any(in_view):
         return nan
     rel = model.relations
-    active = _active_items(model) if len(rel) and model.situations else None
-    weights = np.array([s.probability for s in model.situations])
     sq_err: list[float] = []
-    for g in np.flatnonzero(in_view).tolist():
-        if active is None:
-            break
-        gi, gj = truth.gap_points[g]
-        forward = _near(rel.point_i, rel.cov_i, gi) & _near(rel.point_j, rel.cov_j, gj)
-        backward = _near(rel.point_i, rel.cov_i, gj) & _near(rel.point_j, rel.cov_j, gi)
-        rows = np.flatnonzero(forward | backward)
-        if rows.size == 0:
-            continue
-        present = active[:, rel.i[rows]] & active[:, rel.j[rows]]  # (S, rows)
-        p = np.where(present, rel.p_passable[rows][None], np.inf).min(axis=1)
-        seen = np.isfinite(p)
-        if not np.any(seen) or weights[seen].sum() <= 0:
-            continue
-        p_hat = float(np.sum(weights[seen] * p[seen]) / weights[seen].sum())
-        sq_err.append((p_hat - float(truth.gap_passable[g])) ** 2)
+    if len(rel) and model.situations:
+        weights = np.array([s.probability for s in model.situations])
+        minima = _gap_minima(
+            truth.gap_points,
+            np.flatnonzero(in_view),
+            rel.point_i,
+            rel.cov_i,
+            rel.point_j,
+            rel.cov_j,
+            rel.i,
+            rel.j,
+            rel.p_passable,
+            _active_items(model),
+            _GAP_SLACK_M**2,
+            _CHI2_2_99,
+        )
+        for g, p in zip(np.flatnonzero(in_view).tolist(), minima, strict=True):
+            seen = np.isfinite(p)
+            if not np.any(seen) or weights[seen].sum() <= 0:
+                continue
+            p_hat = float(np.sum(weights[seen] * p[seen]) / weights[seen].sum())
+            sq_err.append((p_hat - float(truth.gap_passable[g])) ** 2)
     return {
         "passability_brier": float(np.mean(sq_err)) if sq_err else math.nan,
         "gaps_in_view": float(np.count_nonzero(in_view)),

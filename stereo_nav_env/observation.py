@@ -42,6 +42,7 @@ Positions and lengths are clipped to ``feature_range_m``.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -77,12 +78,15 @@ def to_robot_frame(points: FloatArray, robot_pose: tuple[float, float, float]) -
     return np.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]], axis=-1)
 
 
+@functools.lru_cache(maxsize=16)
 def region_bounds(cfg: ObservationConfig) -> tuple[Float32Array, Float32Array]:
-    """``(low, high)`` (F,) float32 bounds of one region's features."""
+    """``(low, high)`` (F,) float32 bounds of one region's features (read-only, cached)."""
     L = np.float32(cfg.feature_range_m)
     low = np.array([0, -L, -L, 0, 0, 0, 0, 0, -_PI32, -1, -1, 0], dtype=np.float32)
     high = np.array([1, L, L, L, L, 1, 1, L * np.float32(2.0), _PI32, 1, 1, L], dtype=np.float32)
     assert low.shape == (len(REGION_FEATURES),)
+    low.setflags(write=False)
+    high.setflags(write=False)
     return low, high
 
 
@@ -132,43 +136,44 @@ def _region_table(
 ) -> Float32Array:
     """(K, R, F) float32 region features (see the module docstring), vectorised over regions."""
     K, R, F = cfg.num_situations, cfg.num_regions, cfg.num_features
-    table = np.zeros((K, R, F), dtype=np.float64)
     regions = [(k, r) for k, s in enumerate(model.situations[:K]) for r in s.critical_regions]
-    if regions:
-        which = np.array([k for k, _ in regions])
-        narrow_w = np.stack([r.narrowest for _, r in regions])  # (n, 2, 2) world
-        centre_w = narrow_w.mean(axis=1)
-        narrow = to_robot_frame(narrow_w, robot_pose)
-        centre = narrow.mean(axis=1)
-        dist = np.hypot(centre[:, 0], centre[:, 1])
-        order = np.lexsort((dist, which))  # by situation, then nearest first
-        first = np.searchsorted(which[order], which[order], side="left")
-        rank = np.arange(order.shape[0]) - first
-        keep = order[rank < R]
-        slot = rank[rank < R]
-        across = narrow[:, 1] - narrow[:, 0]
-        length = np.hypot(across[:, 0], across[:, 1])
-        axis = across / np.maximum(length, 1e-12)[:, None]
-        axis[length <= 1e-12] = 0.0
-        p = np.array([r.p_passable for _, r in regions])
-        radius = np.array(  # rigid motions keep distances: measured in the world frame
-            [
-                float(np.max(np.hypot(*(r.polygon - c).T)))
-                for (_, r), c in zip(regions, centre_w, strict=True)
-            ]
-        )
-        feats = np.empty((len(regions), F))
-        feats[:, 0] = 1.0
-        feats[:, 1:3] = centre
-        feats[:, 3] = [r.width_mean_m for _, r in regions]
-        feats[:, 4] = [r.width_std_m for _, r in regions]
-        feats[:, 5] = p
-        feats[:, 6] = 4.0 * p * (1.0 - p)
-        feats[:, 7] = dist
-        feats[:, 8] = np.arctan2(centre[:, 1], centre[:, 0])
-        feats[:, 9:11] = axis
-        feats[:, 11] = radius
-        table[which[keep], slot] = feats[keep]
+    if not regions:  # every slot empty: zeros (within the bounds of every feature)
+        return np.zeros((K, R, F), dtype=np.float32)
+    table = np.zeros((K, R, F), dtype=np.float64)
+    which = np.array([k for k, _ in regions])
+    narrow_w = np.stack([r.narrowest for _, r in regions])  # (n, 2, 2) world
+    centre_w = narrow_w.mean(axis=1)
+    narrow = to_robot_frame(narrow_w, robot_pose)
+    centre = narrow.mean(axis=1)
+    dist = np.hypot(centre[:, 0], centre[:, 1])
+    order = np.lexsort((dist, which))  # by situation, then nearest first
+    first = np.searchsorted(which[order], which[order], side="left")
+    rank = np.arange(order.shape[0]) - first
+    keep = order[rank < R]
+    slot = rank[rank < R]
+    across = narrow[:, 1] - narrow[:, 0]
+    length = np.hypot(across[:, 0], across[:, 1])
+    axis = across / np.maximum(length, 1e-12)[:, None]
+    axis[length <= 1e-12] = 0.0
+    p = np.array([r.p_passable for _, r in regions])
+    radius = np.array(  # rigid motions keep distances: measured in the world frame
+        [
+            float(np.max(np.hypot(*(r.polygon - c).T)))
+            for (_, r), c in zip(regions, centre_w, strict=True)
+        ]
+    )
+    feats = np.empty((len(regions), F))
+    feats[:, 0] = 1.0
+    feats[:, 1:3] = centre
+    feats[:, 3] = [r.width_mean_m for _, r in regions]
+    feats[:, 4] = [r.width_std_m for _, r in regions]
+    feats[:, 5] = p
+    feats[:, 6] = 4.0 * p * (1.0 - p)
+    feats[:, 7] = dist
+    feats[:, 8] = np.arctan2(centre[:, 1], centre[:, 0])
+    feats[:, 9:11] = axis
+    feats[:, 11] = radius
+    table[which[keep], slot] = feats[keep]
     low, high = region_bounds(cfg)
     return np.clip(table.astype(np.float32), low, high)
 

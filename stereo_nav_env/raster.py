@@ -24,6 +24,7 @@ per-pixel Python loops.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import cv2
@@ -100,13 +101,20 @@ def _draw_situation(
             cv2.line(doubt, tuple(ends[0]), tuple(ends[1]), int(values[k]), 1, cv2.LINE_8, _SHIFT)
 
 
+@functools.lru_cache(maxsize=8)
+def _arc_offsets(half: float) -> FloatArray:
+    """``np.linspace(-half, half, _ARC_POINTS)``, read-only (the field of view rarely changes)."""
+    out = np.linspace(-half, half, _ARC_POINTS)
+    out.setflags(write=False)
+    return out
+
+
 def _unobserved(model: EnvironmentModel, A: FloatArray, b: FloatArray, size: int) -> NDArray:
     """Channel 2: 128 outside the field of view, 0 seen, 255 occluded."""
     out = np.full((size, size), UNSEEN_VALUE, dtype=np.uint8)
     obs = model.observation
     vx, vy, heading = (float(v) for v in obs.viewpoint)
-    half = 0.5 * float(obs.fov_rad)
-    ang = heading + np.linspace(-half, half, _ARC_POINTS)
+    ang = heading + _arc_offsets(0.5 * float(obs.fov_rad))
     wedge = np.empty((_ARC_POINTS + 1, 2))  # the viewpoint, then the range arc
     wedge[0] = vx, vy
     wedge[1:, 0] = vx + obs.max_range_m * np.cos(ang)
