@@ -251,6 +251,53 @@ def closest_params_batch(
 
 
 @compiled_on_first_call
+def box_pairs(
+    ends: np.ndarray, cov: np.ndarray, half_width: float, k: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each segment's sigma bound and the pairs ``i < j`` whose grown boxes meet: what an STRtree
+    of the boxes queried with themselves finds (its envelope test, bounds included), by testing
+    every pair (for a few dozen segments, cheaper than building the tree).
+
+    Args:
+        ends: (n, 2, 2) mean endpoints.
+        cov: (n, 2, 2, 2) endpoint covariances.
+        half_width: Half the robot width.
+        k: Multiple of the sigmas each box is grown by (besides ``half_width``).
+
+    Returns:
+        ``(sigma, q0, q1)``: (n,) the square root of the larger endpoint covariance trace, and
+        the pairs.
+    """
+    n = ends.shape[0]
+    sigma = np.empty(n)
+    box = np.empty((n, 4))
+    for a in range(n):
+        sigma[a] = np.sqrt(
+            max(cov[a, 0, 0, 0] + cov[a, 0, 1, 1], cov[a, 1, 0, 0] + cov[a, 1, 1, 1])
+        )
+        grow = half_width + k * sigma[a]
+        box[a, 0] = min(ends[a, 0, 0], ends[a, 1, 0]) - grow
+        box[a, 1] = min(ends[a, 0, 1], ends[a, 1, 1]) - grow
+        box[a, 2] = max(ends[a, 0, 0], ends[a, 1, 0]) + grow
+        box[a, 3] = max(ends[a, 0, 1], ends[a, 1, 1]) + grow
+    q0 = np.empty(n * (n - 1) // 2, np.int64)
+    q1 = np.empty(n * (n - 1) // 2, np.int64)
+    c = 0
+    for a in range(n):
+        for b in range(a + 1, n):
+            if not (
+                box[b, 0] > box[a, 2]
+                or box[b, 2] < box[a, 0]
+                or box[b, 1] > box[a, 3]
+                or box[b, 3] < box[a, 1]
+            ):
+                q0[c] = a
+                q1[c] = b
+                c += 1
+    return sigma, q0[:c], q1[:c]
+
+
+@compiled_on_first_call
 def near_pairs(
     ends: np.ndarray, sigma: np.ndarray, q0: np.ndarray, q1: np.ndarray, width: float, k: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

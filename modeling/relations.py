@@ -33,6 +33,10 @@ from modeling.gaps import Relation, classify_gaps, quadrature_rules
 
 __all__ = ["SegmentRelations", "closest_points", "segment_relations"]
 
+# Up to this many segments, candidate pairs come from testing every pair's boxes (a compiled
+# loop); beyond, from an STRtree of the boxes.
+_ALL_PAIRS_MAX = 128
+
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
 class SegmentRelations:
@@ -143,20 +147,25 @@ def _pairs_and_params(
     if n < 2:
         empty = np.zeros(0, dtype=np.int64)
         return empty, empty, np.zeros(0), np.zeros(0)
-    # (n, 2) traces: upper bounds of the largest eigenvalues.
-    tr = cov[:, :, 0, 0] + cov[:, :, 1, 1]
-    sigma = np.sqrt(tr.max(axis=1))
     k = prune_sigmas(eps)
     # Envelope query: the mean segments i and j are at least as far apart as their boxes along
     # either axis, so a pair within width + k (s_i + s_j) has intersecting boxes when each box is
-    # grown by width / 2 + k s_i. Boxes against themselves: every pair comes once as i < j.
-    grow = 0.5 * width_m + k * sigma
-    lo = endpoints.min(axis=1) - grow[:, None]
-    hi = endpoints.max(axis=1) + grow[:, None]
-    boxes = shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1])
-    q = shapely.STRtree(boxes).query(boxes).astype(np.int64, copy=False)
+    # grown by width / 2 + k s_i, with s_i the square root of the larger endpoint covariance
+    # trace (an upper bound of the largest eigenvalue). Up to _ALL_PAIRS_MAX segments every pair
+    # is tested in one compiled loop; beyond, an STRtree of the boxes is queried with them (the
+    # same envelope test: the same pairs).
+    if n <= _ALL_PAIRS_MAX:
+        sigma, q0, q1 = _gap_kernel.box_pairs(endpoints, cov, 0.5 * width_m, k)
+    else:
+        tr = cov[:, :, 0, 0] + cov[:, :, 1, 1]
+        sigma = np.sqrt(tr.max(axis=1))
+        grow = 0.5 * width_m + k * sigma
+        lo = endpoints.min(axis=1) - grow[:, None]
+        hi = endpoints.max(axis=1) + grow[:, None]
+        boxes = shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1])
+        q0, q1 = shapely.STRtree(boxes).query(boxes).astype(np.int64, copy=False)
     # Exact filter on the mean distance between the segments, pairs sorted by (i, j).
-    return _gap_kernel.near_pairs(endpoints, sigma, q[0], q[1], float(width_m), k)
+    return _gap_kernel.near_pairs(endpoints, sigma, q0, q1, float(width_m), k)
 
 
 def prune_sigmas(eps: float) -> float:
