@@ -291,3 +291,21 @@ def test_large_batches_split_between_two_threads_give_the_same_relations(
     for name in ("i", "j", "point_i", "point_j", "cov_i", "cov_j", "distance_m", "p_passable"):
         assert np.array_equal(getattr(split, name), getattr(whole, name)), name
     assert np.array_equal(split.kind, whole.kind)
+
+
+@pytest.mark.parametrize("n", [2, 7, 40, 128])
+def test_small_sets_test_every_pair_and_find_the_strtree_pairs(
+    n: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Up to _ALL_PAIRS_MAX segments the candidate pairs come from testing every pair's boxes; the
+    # STRtree finds the same pairs (boxes that merely touch included: endpoints on a 1/8 m grid).
+    from modeling import relations
+
+    rng = np.random.default_rng(n)
+    ends = np.round(rng.uniform(0.0, 6.0, (n, 2, 2)) * 8.0) / 8.0
+    cov = np.broadcast_to(np.diag([0.05**2, 0.01**2]), (n, 2, 2, 2)).copy()
+    assert n <= relations._ALL_PAIRS_MAX
+    every_pair = relations.candidate_pairs(ends, cov, W)
+    monkeypatch.setattr(relations, "_ALL_PAIRS_MAX", -1)
+    tree = relations.candidate_pairs(ends, cov, W)
+    assert np.array_equal(every_pair, tree) and (n < 40 or len(tree) > 0)
