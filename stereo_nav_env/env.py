@@ -324,7 +324,8 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         watch.lap("packing")
         return obs
 
-    def _info(self, watch: Stopwatch) -> dict[str, Any]:
+    def _info(self, watch: Stopwatch, *, geodesic_m: float | None = None) -> dict[str, Any]:
+        """The info dict of the current state (``geodesic_m``: its geodesic distance, if known)."""
         assert self.scene is not None and self._geodesic is not None and self.model is not None
         pose = self.robot_pose
         diagnostics: dict[str, float] = {}
@@ -341,7 +342,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             "distance_to_goal_m": math.hypot(
                 self.scene.goal[0] - pose[0], self.scene.goal[1] - pose[1]
             ),
-            "geodesic_distance_m": self._geodesic(pose[:2]),
+            "geodesic_distance_m": (self._geodesic(pose[:2]) if geodesic_m is None else geodesic_m),
         }
 
     # ------------------------------------------------------------------ gym API
@@ -407,7 +408,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         )
         reward = float(sum(components.values()))
         watch.lap("rewards")
-        info = self._info(watch)
+        info = self._info(watch, geodesic_m=after)
         info.update(is_success=reached, collision=result.collided, reward_components=components)
         terminated = bool(reached or (result.collided and cfg.terminate_on_collision))
         self._steps += 1
