@@ -16,8 +16,9 @@ jobs, weigh in), ``env_steps_per_s_at_median`` (1000 / ``env_step_ms``), ``env_r
 (the pair alone, same poses), ``env_step_over_render_ratio`` (step / pair, per round, then the
 median), ``env_reset_ms`` (a reset of the fixed map, its OpenGL context and distance field made
 already), and ``env_stage_<stage>_ms`` for each stage the env times
-(``physics``, ``noise`` (drawing the pixel noise, the grey images, adding the noise),
-``render``, ``segments`` (both images), ``matching``, ``triangulation``, ``modeling``
+(``physics``, ``noise`` (the grey images plus their noise), ``render`` (the pair; the pixel noise
+is drawn meanwhile in the worker thread), ``segments`` (both images), ``matching``,
+``triangulation``, ``modeling``
 (``build_model``), ``packing``, ``rewards``, ``diagnostics``).
 """
 

@@ -17,6 +17,7 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
+from modeling._worker import worker
 from modeling.model import EnvironmentModel
 from modeling.pipeline import to_gray
 from modeling.rig import HeadPose, StereoRig
@@ -279,12 +280,15 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         cfg = self.config
         rig = self.rig
         sigma = cfg.pixel_noise_std
-        levels = None
+        # the pixel noise is drawn in the worker thread while the pair renders (the generator
+        # releases the interpreter lock; nothing else draws from np_random meanwhile, so the
+        # draws are those of drawing it here, before the render)
+        draw = None
         if sigma > 0:
-            levels = draw_noise_levels(self.np_random, rig.height_px, rig.width_px)
-        watch.lap("noise")
+            draw = worker().submit(draw_noise_levels, self.np_random, rig.height_px, rig.width_px)
         head = self.head_pose
         self._clean_pair = self._get_renderer().render_stereo(head)
+        levels = None if draw is None else draw.result()
         watch.lap("render")
         # the pipeline sees the noisy grey images; the noisy RGB pair (the same noise on every
         # channel) is made only when someone asks for it (images observation, render_stereo)
