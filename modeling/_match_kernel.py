@@ -85,6 +85,7 @@ def candidate_grid(
             opposite = polarity_l[i] != polarity_r[j]
             if opposite and not allow_opposite:
                 continue
+            # photometric agreement of the four side samples (module docstring of matching)
             far_l = abs(far_left_l[i] - far_left_r[j]) <= max_grey_diff
             far_r = abs(far_right_l[i] - far_right_r[j]) <= max_grey_diff
             near_l = abs(near_left_l[i] - near_left_r[j]) <= max_near_grey_diff
@@ -95,6 +96,8 @@ def candidate_grid(
                 photometric = (far_l or far_r) and near_l and near_r
             if not photometric:
                 continue
+            # disparity along the pair: d(v) = u_left(v) - u_right(v) = (a_l - a_r) + (s_l - s_r) v
+            # with u(v) = a + s v the fitted lines, at both ends of the overlap
             a_r = u_r[j] - slope_r[j] * v_r[j]
             d_a = a_l - a_r
             d_s = slope_l[i] - slope_r[j]
