@@ -251,22 +251,20 @@ def closest_params_batch(
 
 
 @compiled_on_first_call
-def box_pairs(
+def grown_boxes(
     ends: np.ndarray, cov: np.ndarray, half_width: float, k: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Each segment's sigma bound and the pairs ``i < j`` whose grown boxes meet: what an STRtree
-    of the boxes queried with themselves finds (its envelope test, bounds included), by testing
-    every pair (for a few dozen segments, cheaper than building the tree).
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each segment's sigma bound and its bounding box grown by ``half_width + k sigma``.
 
     Args:
         ends: (n, 2, 2) mean endpoints.
         cov: (n, 2, 2, 2) endpoint covariances.
         half_width: Half the robot width.
-        k: Multiple of the sigmas each box is grown by (besides ``half_width``).
+        k: Multiple of the sigma each box is grown by (besides ``half_width``).
 
     Returns:
-        ``(sigma, q0, q1)``: (n,) the square root of the larger endpoint covariance trace, and
-        the pairs.
+        ``(sigma, box)``: (n,) the square root of the larger endpoint covariance trace, and (n, 4)
+        ``x_min, y_min, x_max, y_max`` of each grown box.
     """
     n = ends.shape[0]
     sigma = np.empty(n)
@@ -280,6 +278,15 @@ def box_pairs(
         box[a, 1] = min(ends[a, 0, 1], ends[a, 1, 1]) - grow
         box[a, 2] = max(ends[a, 0, 0], ends[a, 1, 0]) + grow
         box[a, 3] = max(ends[a, 0, 1], ends[a, 1, 1]) + grow
+    return sigma, box
+
+
+@compiled_on_first_call
+def box_pairs(box: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The pairs ``i < j`` of boxes (n, 4) ``x_min, y_min, x_max, y_max`` that meet: what an
+    STRtree of the boxes queried with themselves finds (its envelope test, bounds included), by
+    testing every pair (for a few dozen boxes, cheaper than building the tree)."""
+    n = box.shape[0]
     q0 = np.empty(n * (n - 1) // 2, np.int64)
     q1 = np.empty(n * (n - 1) // 2, np.int64)
     c = 0
@@ -294,7 +301,7 @@ def box_pairs(
                 q0[c] = a
                 q1[c] = b
                 c += 1
-    return sigma, q0[:c], q1[:c]
+    return q0[:c], q1[:c]
 
 
 @compiled_on_first_call

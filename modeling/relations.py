@@ -154,15 +154,11 @@ def _pairs_and_params(
     # trace (an upper bound of the largest eigenvalue). Up to _ALL_PAIRS_MAX segments every pair
     # is tested in one compiled loop; beyond, an STRtree of the boxes is queried with them (the
     # same envelope test: the same pairs).
+    sigma, box = _gap_kernel.grown_boxes(endpoints, cov, 0.5 * width_m, k)
     if n <= _ALL_PAIRS_MAX:
-        sigma, q0, q1 = _gap_kernel.box_pairs(endpoints, cov, 0.5 * width_m, k)
+        q0, q1 = _gap_kernel.box_pairs(box)
     else:
-        tr = cov[:, :, 0, 0] + cov[:, :, 1, 1]
-        sigma = np.sqrt(tr.max(axis=1))
-        grow = 0.5 * width_m + k * sigma
-        lo = endpoints.min(axis=1) - grow[:, None]
-        hi = endpoints.max(axis=1) + grow[:, None]
-        boxes = shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1])
+        boxes = shapely.box(box[:, 0], box[:, 1], box[:, 2], box[:, 3])
         q0, q1 = shapely.STRtree(boxes).query(boxes).astype(np.int64, copy=False)
     # Exact filter on the mean distance between the segments, pairs sorted by (i, j).
     return _gap_kernel.near_pairs(endpoints, sigma, q0, q1, float(width_m), k)

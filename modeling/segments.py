@@ -425,23 +425,19 @@ def _fit(
     sigma_px, bias_sigma_px, min_length_px, min_angle_deg, min_gradient = opts[:5]
     search_px, trim_px, side_px, near_px = opts.search_px, opts.trim_px, opts.side_px, opts.near_px
     n_img = len(images)
-    if sum(len(d) for d in detected) == 0:
+    counts = np.array([len(d) for d in detected], dtype=np.int64)
+    if counts.sum() == 0:
         return [ImageSegments.empty(shape) for _ in images]
+    sin_min = math.sin(math.radians(min_angle_deg))
     # each line top end first; the near-horizontal ones (left end first) apart; the rows each
     # other one crosses, trimmed at both ends (``_edge_kernel.detected_lines``)
     hor, hor_count, image_of, x0, y0, inv_slope, r0, r1 = detected_lines(
-        np.concatenate(detected),
-        np.array([len(d) for d in detected], dtype=np.int64),
-        H,
-        float(min_length_px),
-        math.sin(math.radians(min_angle_deg)),
-        int(trim_px),
+        np.concatenate(detected), counts, H, float(min_length_px), sin_min, int(trim_px)
     )
     bounds = np.concatenate(([0], np.cumsum(hor_count))).tolist()
     horizontal = [hor[bounds[k] : bounds[k + 1]] for k in range(n_img)]
     if x0.size == 0:
         return [ImageSegments.empty(shape, horizontal=h) for h in horizontal]
-    sin_min = math.sin(math.radians(min_angle_deg))
 
     # edge points, one per row (the compiled loop of ``_edge_kernel``), summed per segment; the
     # pixel block around the LSD line covers the search window, the peak's neighbours and the

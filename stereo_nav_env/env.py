@@ -328,8 +328,9 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         watch.lap("packing")
         return obs
 
-    def _info(self, watch: Stopwatch, *, geodesic_m: float | None = None) -> dict[str, Any]:
-        """The info dict of the current state (``geodesic_m``: its geodesic distance, if known)."""
+    def _info(self, watch: Stopwatch, *, geodesic_m: float) -> dict[str, Any]:
+        """The info dict of the current state (``geodesic_m``: its geodesic distance to the goal,
+        which the caller has at hand)."""
         assert self.scene is not None and self._geodesic is not None and self.model is not None
         pose = self.robot_pose
         diagnostics: dict[str, float] = {}
@@ -346,7 +347,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             "distance_to_goal_m": math.hypot(
                 self.scene.goal[0] - pose[0], self.scene.goal[1] - pose[1]
             ),
-            "geodesic_distance_m": (self._geodesic(pose[:2]) if geodesic_m is None else geodesic_m),
+            "geodesic_distance_m": geodesic_m,
         }
 
     # ------------------------------------------------------------------ gym API
@@ -379,7 +380,8 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self._return = 0.0
         watch.lap("physics")
         obs = self._observe(watch)
-        info = self._info(watch)
+        assert self._geodesic is not None
+        info = self._info(watch, geodesic_m=self._geodesic(self.robot_pose[:2]))
         self.last_timings_ms = watch.laps
         return obs, info
 

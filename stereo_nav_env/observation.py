@@ -120,25 +120,15 @@ def observation_space(cfg: ObservationConfig, rig: StereoRig) -> spaces.Dict:
 def goal_features(
     goal_xy: tuple[float, float], robot_pose: tuple[float, float, float]
 ) -> Float32Array:
-    """``(x_m, y_m, distance_m, bearing_rad)`` (4,) float32 of the goal in the robot frame.
-
-    The arithmetic of :func:`to_robot_frame` on one point, in Python floats (the same IEEE
-    operations in the same order; a tenth of the cost of the array calls for four numbers).
-    """
-    x0, y0, heading = robot_pose
-    c, s = math.cos(heading), math.sin(heading)
-    dx, dy = float(goal_xy[0]) - x0, float(goal_xy[1]) - y0
-    x, y = c * dx + s * dy, -s * dx + c * dy
-    G = GOAL_RANGE_M
-    return np.array(
-        [
-            min(max(x, -G), G),
-            min(max(y, -G), G),
-            min(max(math.hypot(x, y), 0.0), 2 * G),
-            min(max(math.atan2(y, x), -math.pi), math.pi),
-        ],
-        dtype=np.float32,
+    """``(x_m, y_m, distance_m, bearing_rad)`` (4,) float32 of the goal in the robot frame."""
+    g = to_robot_frame(np.asarray(goal_xy, dtype=np.float64), robot_pose)
+    x, y = float(g[0]), float(g[1])
+    out = np.array(
+        [x, y, math.hypot(x, y), math.atan2(y, x)],
+        dtype=np.float64,
     )
+    G = GOAL_RANGE_M
+    return np.clip(out, [-G, -G, 0, -math.pi], [G, G, 2 * G, math.pi]).astype(np.float32)
 
 
 def _region_table(
