@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from modeling._face_kernel import face_joins
+from modeling._compiled.face import face_joins
 from modeling._validation import positive
 from modeling.observation import FloorObservation, FloorSegment
 from modeling.segments import ImageSegments

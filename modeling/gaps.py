@@ -19,7 +19,7 @@ is the narrow one, so the integration window is cut to ``m_u +- 8.5 s_u`` (outsi
 below 1e-16), and the window is split at the steps of the inner term (``w cos(theta) = |m_v|``)
 and around the peak of the outer density. The scalar function integrates adaptively with
 :func:`scipy.integrate.quad`. The batch function (a compiled loop over pairs,
-:mod:`modeling._gap_kernel`) uses two rules: for
+:mod:`modeling._compiled.gap`) uses two rules: for
 *smooth* pairs, whose window lies well inside ``(-w, w)`` and whose inner term changes slowly across
 it (the common stereo case: a narrow lateral and a wide depth uncertainty), a 12-node
 Gauss-Hermite rule in ``u`` (error below 1e-7 on 240,000 random smooth pairs; 8 nodes where the
@@ -41,7 +41,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy import integrate, special
 
-from modeling import _gap_kernel
+from modeling._compiled import gap as _gap_kernel
 from modeling._validation import FloatArray, covariance, finite_array, positive
 
 __all__ = [
@@ -130,7 +130,7 @@ def _integrand(
 
 def _p_inside_batch(mu: FloatArray, S: FloatArray, w: FloatArray) -> FloatArray:
     """P(||d|| <= w) for (m,) pairs ``d ~ N(mu, S)``, ``w > 0`` (compiled loop, see
-    :func:`modeling._gap_kernel.p_inside`).
+    :func:`modeling._compiled.gap.p_inside`).
 
     Pairs whose mean is more than ``K_SCREEN_BATCH`` (4.5) major-axis sigmas outside (inside) the
     disc get 0 (1): ``P(||d - mu|| >= r) <= exp(-r^2 / (2 s_v^2))`` bounds the error by 4.1e-5; so
@@ -141,7 +141,7 @@ def _p_inside_batch(mu: FloatArray, S: FloatArray, w: FloatArray) -> FloatArray:
     outer standard deviation) take the 12-node Gauss-Hermite rule in ``u`` (error below 1e-7; the
     8-node rule where it moves by at most a quarter, error below 1e-12); the
     others 16-node Gauss-Legendre panels between the breakpoints of
-    :func:`modeling._gap_kernel.breakpoints`, in ``tau = tan(theta / 2)``.
+    :func:`modeling._compiled.gap.breakpoints`, in ``tau = tan(theta / 2)``.
     """
     if mu.shape[0] == 0:
         return np.zeros(0)

@@ -54,7 +54,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._match_kernel import candidate_grid, decide, histogram_inputs, histograms, match_rows
+from modeling._compiled.match import candidate_grid, decide, histogram_inputs, histograms, match_rows
 from modeling._validation import FloatArray, positive
 from modeling.rig import StereoRig
 from modeling.segments import ImageSegments

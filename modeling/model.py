@@ -71,7 +71,8 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import numpy as np
 import shapely
 
-from modeling import _model_kernel, _ray_kernel
+from modeling._compiled import hull as _model_kernel
+from modeling._compiled import ray as _ray_kernel
 from modeling._validation import FloatArray, positive
 from modeling.gaps import Relation, _check_eps, gap_width_moments
 from modeling.observation import FloorObservation
@@ -349,7 +350,7 @@ def _hulls(
     A degenerate hull (all points on a line, or one point) becomes the rectangle around that
     segment at distance ``grow_m``, so every polygon has an area. GEOS (shapely) makes the hulls
     of the sets of three or more points; the thin-hull test, the orientation and the rectangles
-    are one compiled pass (:func:`modeling._model_kernel.finish_hulls`). Every set is computed on
+    are one compiled pass (:func:`modeling._compiled.hull.finish_hulls`). Every set is computed on
     its own, so a set's hull does not depend on the other sets of the call: callers batch as many
     sets as they can into one call to share its fixed cost.
 

@@ -26,9 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-from modeling import _gap_kernel
+from modeling._compiled import gap as _gap_kernel
 from modeling._validation import FloatArray
-from modeling._worker import worker
+from modeling._compiled.worker import worker
 from modeling.gaps import Relation, classify_gaps, quadrature_rules
 
 __all__ = ["SegmentRelations", "closest_points", "segment_relations"]
@@ -230,7 +230,7 @@ def _relation_rows(
     t: FloatArray,
     width_m: float,
 ) -> tuple[FloatArray, ...]:
-    """:func:`modeling._gap_kernel.relation_rows` of the pairs, a large batch in two halves at
+    """:func:`modeling._compiled.gap.relation_rows` of the pairs, a large batch in two halves at
     once (the compiled loop releases the interpreter lock; each row is computed on its own, so
     the result is the same)."""
     rules = quadrature_rules()

@@ -7,7 +7,7 @@ in each image row it crosses, the sub-pixel column of its edge is found as the p
 the horizontal intensity gradient (central difference, of the segment's own contrast sign) near
 the LSD line, and the horizontal position ``u = u_c + slope * (v - v_c)`` is fitted to those edge
 points by least squares, as in section 3.2 of Miura (ICRA-94). Both parts are compiled loops
-(``modeling._edge_kernel``, Numba): the row-by-row search (a block of ``2 B + 1`` pixels around the
+(``modeling._compiled.edge``, Numba): the row-by-row search (a block of ``2 B + 1`` pixels around the
 LSD line serves the gradient, the peak search and the grey levels on both sides) and the fit of
 each segment's line from its sums.
 
@@ -53,9 +53,9 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._edge_kernel import detected_lines, edge_sums, segment_fits
+from modeling._compiled.edge import detected_lines, edge_sums, segment_fits
 from modeling._validation import FloatArray, keyword_options, positive
-from modeling._worker import worker
+from modeling._compiled.worker import worker
 
 __all__ = ["ImageSegments", "extract_segment_pair", "extract_segments"]
 

@@ -33,7 +33,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from modeling._tri_kernel import floor_rows
+from modeling._compiled.tri import floor_rows
 from modeling._validation import FloatArray
 from modeling.matching import StereoMatches
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment

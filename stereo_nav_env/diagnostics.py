@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._jit import compiled_helper, compiled_on_first_call
+from modeling._compiled.jit import compiled_helper, compiled_on_first_call
 from modeling.faces import FACE_SOURCE
 from modeling.model import EnvironmentModel
 from stereo_nav_env.scenes import Scene

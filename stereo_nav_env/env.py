@@ -17,7 +17,7 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from modeling._worker import worker
+from modeling._compiled.worker import worker
 from modeling.model import EnvironmentModel
 from modeling.pipeline import to_gray
 from modeling.rig import HeadPose, StereoRig

@@ -27,7 +27,7 @@ import shapely
 from numpy.typing import NDArray
 from scipy.special import ndtri
 
-from modeling._jit import compiled_helper, compiled_on_first_call
+from modeling._compiled.jit import compiled_helper, compiled_on_first_call
 from modeling.model import EnvironmentModel, build_model
 from modeling.pipeline import stereo_to_floor
 from modeling.rig import HeadPose, StereoRig

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from synthetic import model_of, wall_segments
+from tests.agents.synthetic import model_of, wall_segments
 
 from agents.costmap import CostGrid, cost_to_go, path_from
 from agents.gridmap import GateMemory, GridSpec, OccupancyMemory

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 import pytest
-from synthetic import model_of, wall_segments
+from tests.agents.synthetic import model_of, wall_segments
 
 from agents.base import ControlLimits
 from agents.decision import (

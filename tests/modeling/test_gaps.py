@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from modeling._gap_kernel import GH_FEW_SLOPE, GH_MAX_SLOPE, eigen_frame, gh_slope
+from modeling._compiled.gap import GH_FEW_SLOPE, GH_MAX_SLOPE, eigen_frame, gh_slope
 from modeling.gaps import (
     Relation,
     classify_gap,

@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 import pytest
-from synth import render_pair
+from tests.modeling.synth import render_pair
 
 from modeling.matching import MatchCandidates, StereoMatches, match_candidates, match_segments
 from modeling.rig import StereoRig

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from synth import render_pair
+from tests.modeling.synth import render_pair
 
 from modeling import model_from_stereo as exported
 from modeling.model import build_model

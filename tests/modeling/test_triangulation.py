@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from synth import render_pair
+from tests.modeling.synth import render_pair
 
 from modeling.faces import FACE_SOURCE
 from modeling.matching import StereoMatches

@@ -1,7 +1,7 @@
 """Compiled loops of the occlusion sweep (:func:`modeling.model._occlusion`): the nearest segment
 along each ray, and the shadow polygons of the runs of blocked rays.
 
-Compiled with Numba on first use (:mod:`modeling._jit`); importing this module does not import
+Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not import
 Numba.
 """
 
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from modeling._jit import compiled_on_first_call
+from modeling._compiled.jit import compiled_on_first_call
 
 
 @compiled_on_first_call

@@ -7,7 +7,7 @@ accumulated. :func:`segment_fits`: the least-squares line of each segment from i
 arithmetic is that of the vectorised NumPy formulation they replace (float32 gradients and peak
 offsets, float64 sums), written as loops so that it costs a fraction of the many array passes.
 
-Both are compiled with Numba on first use (:mod:`modeling._jit`); importing this module does not
+Both are compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not
 import Numba.
 """
 
@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from modeling._jit import compiled_on_first_call
+from modeling._compiled.jit import compiled_on_first_call
 
 # Columns of the per-segment sums: n, sum v, sum u, sum v^2, sum v u, sum u^2, then the sums of the
 # peak gradient, the far grey level left and right, the near grey level left and right.

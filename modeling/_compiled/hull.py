@@ -1,7 +1,7 @@
 """Compiled loops of :mod:`modeling.model`: the outline polygons (:func:`finish_hulls`, after GEOS
 has made the convex hulls) and the connected components of small graphs (:func:`components`).
 
-Compiled with Numba on first use (:mod:`modeling._jit`); importing this module does not import
+Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not import
 Numba.
 """
 
@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from modeling._jit import compiled_on_first_call
+from modeling._compiled.jit import compiled_on_first_call
 
 
 @compiled_on_first_call

@@ -8,7 +8,7 @@ rule for smooth pairs (8 nodes for the smoothest), 16-node Gauss-Legendre panels
 a model costs a few array allocations instead of a few hundred small array operations.
 ``Phi(x)`` is ``erfc(-x / sqrt 2) / 2``.
 
-Compiled with Numba on first use (:mod:`modeling._jit`); importing this module does not import
+Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not import
 Numba.
 """
 
@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from modeling._jit import compiled_helper, compiled_on_first_call
+from modeling._compiled.jit import compiled_helper, compiled_on_first_call
 
 _SQRT1_2 = 1.0 / math.sqrt(2.0)
 _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)

@@ -4,7 +4,7 @@ edges a near-horizontal image line joins.
 It computes every value with the same floating-point operations, in the same order, as the NumPy
 expressions it replaced, so the pairs found are identical.
 
-Compiled with Numba on first use (:mod:`modeling._jit`); importing this module does not import
+Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not import
 Numba.
 """
 
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from modeling._jit import compiled_on_first_call
+from modeling._compiled.jit import compiled_on_first_call
 
 
 @compiled_on_first_call

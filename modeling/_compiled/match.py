@@ -7,7 +7,7 @@ the NumPy expressions it replaced, so the matches are identical; the gain is the
 calls per image pair that a few dozen segments cost. The exponentials and the product of the
 region weights with the histograms stay in NumPy (its own ``exp`` and BLAS), between the loops.
 
-Compiled with Numba on first use (:mod:`modeling._jit`); importing this module does not import
+Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not import
 Numba.
 """
 
@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from modeling._jit import compiled_on_first_call
+from modeling._compiled.jit import compiled_on_first_call
 
 
 @compiled_on_first_call
