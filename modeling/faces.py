@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from modeling._compiled.face import face_joins
-from modeling._validation import positive
+from modeling.validation import positive
 from modeling.observation import FloorObservation, FloorSegment
 from modeling.segments import ImageSegments
 

@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike
 from scipy import integrate, special
 
 from modeling._compiled import gap as _gap_kernel
-from modeling._validation import FloatArray, covariance, finite_array, positive
+from modeling.validation import FloatArray, covariance, finite_array, positive
 
 __all__ = [
     "Relation",

@@ -55,7 +55,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from modeling._compiled.match import candidate_grid, decide, histogram_inputs, histograms, match_rows
-from modeling._validation import FloatArray, positive
+from modeling.validation import FloatArray, positive
 from modeling.rig import StereoRig
 from modeling.segments import ImageSegments
 

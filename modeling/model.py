@@ -73,7 +73,7 @@ import shapely
 
 from modeling._compiled import hull as _model_kernel
 from modeling._compiled import ray as _ray_kernel
-from modeling._validation import FloatArray, positive
+from modeling.validation import FloatArray, positive
 from modeling.gaps import Relation, _check_eps, gap_width_moments
 from modeling.observation import FloorObservation
 from modeling.relations import SegmentRelations, closest_points, segment_relations

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from modeling._validation import FloatArray, covariance, finite_array, positive, probabilities
+from modeling.validation import FloatArray, covariance, finite_array, positive, probabilities
 
 __all__ = ["AmbiguousSegment", "FloorObservation", "FloorSegment"]
 

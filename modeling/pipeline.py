@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._validation import keyword_options, positive
+from modeling.validation import keyword_options, positive
 from modeling.faces import close_faces as close_faces_of
 from modeling.matching import match_segments
 from modeling.observation import FloorObservation

@@ -27,7 +27,7 @@ import numpy as np
 import shapely
 
 from modeling._compiled import gap as _gap_kernel
-from modeling._validation import FloatArray
+from modeling.validation import FloatArray
 from modeling._compiled.worker import worker
 from modeling.gaps import Relation, classify_gaps, quadrature_rules
 

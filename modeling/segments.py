@@ -54,7 +54,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from modeling._compiled.edge import detected_lines, edge_sums, segment_fits
-from modeling._validation import FloatArray, keyword_options, positive
+from modeling.validation import FloatArray, keyword_options, positive
 from modeling._compiled.worker import worker
 
 __all__ = ["ImageSegments", "extract_segment_pair", "extract_segments"]

@@ -53,7 +53,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import Delaunay, QhullError, cKDTree
 
-from modeling._validation import FloatArray, finite_array, positive
+from modeling.validation import FloatArray, finite_array, positive
 from modeling.model import EnvironmentModel, Situation
 
 __all__ = ["Route", "model_routes", "path_graph", "routes", "situation_graph"]

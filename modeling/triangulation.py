@@ -34,7 +34,7 @@ from collections.abc import Callable
 import numpy as np
 
 from modeling._compiled.tri import floor_rows
-from modeling._validation import FloatArray
+from modeling.validation import FloatArray
 from modeling.matching import StereoMatches
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
 from modeling.rig import HeadPose, StereoRig

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -180,3 +182,64 @@ def test_components_label_each_node_with_the_smallest_node_of_its_component() ->
     chain = np.arange(4999)
     assert not _components(5000, chain, chain + 1).any()
     assert not _components(5000, chain[::-1] + 1, chain[::-1]).any()
+
+
+# ------------------------------------------------------------------ scalar validators and options
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class _Leaf:
+    x: int = 1
+    y: float = 2.0
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class _Tree:
+    leaf: _Leaf = dataclasses.field(default_factory=_Leaf)
+    z: str = "q"
+
+
+def test_scalar_validators_accept_and_name_bad_values() -> None:
+    from modeling.validation import boolean, integer, number
+
+    assert number(3, "a", low=0.0) == 3.0
+    assert number(0.0, "a", low=0.0, strict=False) == 0.0
+    assert integer(np.int64(4), "n", low=1) == 4
+    assert boolean(False, "flag") is False
+    for bad in (True, float("nan"), float("inf"), "1", None):
+        with pytest.raises(ValueError, match="^a must be a finite number"):
+            number(bad, "a")
+    with pytest.raises(ValueError, match="a must be > 0"):
+        number(0.0, "a", low=0.0)
+    with pytest.raises(ValueError, match="a must be <= 1"):
+        number(1.5, "a", high=1.0, strict=False)
+    with pytest.raises(ValueError, match="n must be an integer >= 1"):
+        integer(0, "n", low=1)
+    with pytest.raises(ValueError, match="n must be an integer"):
+        integer(True, "n")
+    with pytest.raises(ValueError, match="flag must be True or False"):
+        boolean(1, "flag")
+
+
+def test_from_flat_maps_flat_and_nested_keys() -> None:
+    from modeling.validation import from_flat
+
+    assert from_flat(_Tree, {"x": 5, "z": "w"}) == _Tree(leaf=_Leaf(x=5), z="w")
+    assert from_flat(_Tree, {"leaf": {"y": 3.0}, "x": 7}) == _Tree(leaf=_Leaf(x=7, y=3.0))
+    assert from_flat(_Tree, {"leaf": _Leaf(x=9), "y": 1.5}) == _Tree(leaf=_Leaf(x=9, y=1.5))
+    assert from_flat(_Tree, {}) == _Tree()
+    with pytest.raises(ValueError, match=r"unknown _Tree option\(s\) \['bad'\]; known: \['leaf'"):
+        from_flat(_Tree, {"bad": 1})
+    with pytest.raises(ValueError, match="unknown _Tree.leaf option"):
+        from_flat(_Tree, {"leaf": {"w": 1}})
+    with pytest.raises(ValueError, match="leaf must be a _Leaf or a dict, got int"):
+        from_flat(_Tree, {"leaf": 3})
+
+
+def test_with_overrides_replaces_named_fields_only() -> None:
+    from modeling.validation import with_overrides
+
+    assert with_overrides(None, _Leaf, {}) == _Leaf()
+    assert with_overrides(_Leaf(x=2), _Leaf, {"y": 0.5}) == _Leaf(x=2, y=0.5)
+    with pytest.raises(ValueError, match=r"unknown _Leaf option\(s\) \['q'\]"):
+        with_overrides(None, _Leaf, {"q": 1})
+    with pytest.raises(ValueError, match="options must be a _Leaf, got _Tree"):
+        with_overrides(_Tree(), _Leaf, {})
