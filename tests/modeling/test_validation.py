@@ -205,7 +205,7 @@ def test_scalar_validators_accept_and_name_bad_values() -> None:
     assert integer(np.int64(4), "n", low=1) == 4
     assert boolean(False, "flag") is False
     for bad in (True, float("nan"), float("inf"), "1", None):
-        with pytest.raises(ValueError, match="^a must be a finite number"):
+        with pytest.raises(ValueError, match=r"^a must be a finite number"):
             number(bad, "a")
     with pytest.raises(ValueError, match="a must be > 0"):
         number(0.0, "a", low=0.0)
@@ -228,7 +228,7 @@ def test_from_flat_maps_flat_and_nested_keys() -> None:
     assert from_flat(_Tree, {}) == _Tree()
     with pytest.raises(ValueError, match=r"unknown _Tree option\(s\) \['bad'\]; known: \['leaf'"):
         from_flat(_Tree, {"bad": 1})
-    with pytest.raises(ValueError, match="unknown _Tree.leaf option"):
+    with pytest.raises(ValueError, match=r"unknown _Tree\.leaf option"):
         from_flat(_Tree, {"leaf": {"w": 1}})
     with pytest.raises(ValueError, match="leaf must be a _Leaf or a dict, got int"):
         from_flat(_Tree, {"leaf": 3})
