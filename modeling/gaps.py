@@ -1,4 +1,4 @@
-"""Passability of the gap between two uncertain points (paper section 2, Fig. 3).
+"""Passability of the gap between two uncertain points (paper section 2, Fig. 3, and 4.1).
 
 Two floor points ``a ~ N(mean_a, cov_a)`` and ``b ~ N(mean_b, cov_b)``, independent, world frame,
 metres. Their difference ``d = b - a ~ N(mu, S)`` with ``mu = mean_b - mean_a`` and
@@ -7,8 +7,9 @@ metres. Their difference ``d = b - a ~ N(mu, S)`` with ``mu = mean_b - mean_a`` 
 along the line between the means (which, for a sideways gap of 0.55 m with 0.3 m depth sigma and a
 0.6 m robot, says 0.04 where the truth is about 0.60).
 
-Method. In the eigenbasis of ``S`` the two coordinates are independent normals: ``u`` along the
-minor axis (standard deviation ``s_u``) and ``v`` along the major axis (``s_v >= s_u``). Then
+Method (:func:`gap_passable_probability`, the readable reference). In the eigenbasis of ``S``
+(:func:`eigen_frame`) the two coordinates are independent normals: ``u`` along the minor axis
+(standard deviation ``s_u``) and ``v`` along the major axis (``s_v >= s_u``). Then
 
     P(||d|| <= w) = integral over u in [-w, w] of
                     phi_u(u) * [Phi((h - m_v) / s_v) - Phi((-h - m_v) / s_v)] du
@@ -17,16 +18,18 @@ with ``h = sqrt(w^2 - u^2)``. Substituting ``u = w sin(theta)`` removes the squa
 singularity at ``u = +-w`` (``h = w cos(theta)``, ``du = w cos(theta) dtheta``). The outer density
 is the narrow one, so the integration window is cut to ``m_u +- 8.5 s_u`` (outside it the mass is
 below 1e-16), and the window is split at the steps of the inner term (``w cos(theta) = |m_v|``)
-and around the peak of the outer density. The scalar function integrates adaptively with
-:func:`scipy.integrate.quad`. The batch function (a compiled loop over pairs,
-:mod:`modeling._compiled.gap`) uses two rules: for
-*smooth* pairs, whose window lies well inside ``(-w, w)`` and whose inner term changes slowly across
-it (the common stereo case: a narrow lateral and a wide depth uncertainty), a 12-node
-Gauss-Hermite rule in ``u`` (error below 1e-7 on 240,000 random smooth pairs; 8 nodes where the
-inner term is flatter still, error below 1e-12); for the others, 16-node Gauss-Legendre panels
-over the breakpoints above in ``tau = tan(theta / 2)`` (rational, no trigonometric calls). Both
-agree with the adaptive result to better than 1e-4 (checked by the tests). Pairs whose mean is far
-outside or inside the disc (Gaussian tail bounds, see ``_p_inside_batch``) are answered without
+and around the peak of the outer density (:func:`integration_breakpoints`). The scalar function
+integrates adaptively with :func:`scipy.integrate.quad`.
+
+The batch (:func:`passable_from_difference`, a compiled loop over pairs in
+:mod:`modeling._compiled.gap`, tested against the scalar function) uses two rules: for *smooth*
+pairs, whose window lies well inside ``(-w, w)`` and whose inner term changes slowly across it
+(:func:`gh_slope`; the common stereo case: a narrow lateral and a wide depth uncertainty), a
+12-node Gauss-Hermite rule in ``u`` (error below 1e-7 on 240,000 random smooth pairs; 8 nodes
+where the inner term is flatter still, error below 1e-12); for the others, 16-node Gauss-Legendre
+panels over the breakpoints in ``tau = tan(theta / 2)`` (rational, no trigonometric calls). Both
+agree with the adaptive result to better than 1e-4. Pairs whose mean is far outside or inside the
+disc (Gaussian tail bounds, see :func:`passable_from_difference`) are answered without
 integration: error below 1e-15 in the scalar function, below 4.1e-5 in the batch one.
 """
 
@@ -36,32 +39,57 @@ import functools
 import itertools
 import math
 from enum import IntEnum
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy import integrate, special
 
 from modeling._compiled import gap as _gap_kernel
+from modeling._compiled.gap import (
+    GH_FEW_SLOPE,
+    GH_MAX_REACH,
+    GH_MAX_SLOPE,
+    K_SIGMA,
+    HermiteGrid,
+    QuadratureRules,
+)
 from modeling.validation import FloatArray, covariance, finite_array, positive
 
 __all__ = [
+    "GH_FEW_SLOPE",
+    "GH_MAX_SLOPE",
+    "QUADRATURE_RULES",
+    "EigenFrame",
     "Relation",
     "classify_gap",
     "classify_gaps",
+    "eigen_frame",
     "gap_passable_probability",
     "gap_passable_probability_batch",
     "gap_width_moments",
+    "gap_width_moments_reference",
+    "gh_slope",
+    "integration_breakpoints",
+    "passable_from_difference",
 ]
 
 _K_SCREEN_EXACT = 8.5  # scalar function: answer 0 or 1 beyond this (error < 1e-15)
-_GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(16)
-_GH_NODES, _GH_WEIGHTS = np.polynomial.hermite_e.hermegauss(12)  # nodes within +-5.5
-_GH_WEIGHTS = _GH_WEIGHTS / _GH_WEIGHTS.sum()
-_GH_FEW_NODES, _GH_FEW_WEIGHTS = np.polynomial.hermite_e.hermegauss(8)  # the flattest pairs
-_GH_FEW_WEIGHTS = _GH_FEW_WEIGHTS / _GH_FEW_WEIGHTS.sum()
-_RULES = (_GH_NODES, _GH_WEIGHTS, _GH_FEW_NODES, _GH_FEW_WEIGHTS, _GL_NODES, _GL_WEIGHTS)
-for _rule in _RULES:
-    _rule.setflags(write=False)
+
+
+def _rules() -> QuadratureRules:
+    gh_x, gh_w = np.polynomial.hermite_e.hermegauss(12)  # nodes within +-5.5
+    few_x, few_w = np.polynomial.hermite_e.hermegauss(8)  # the flattest pairs
+    gl_x, gl_w = np.polynomial.legendre.leggauss(16)
+    rules = QuadratureRules(gh_x, gh_w / gh_w.sum(), few_x, few_w / few_w.sum(), gl_x, gl_w)
+    for arr in rules:
+        arr.setflags(write=False)
+    return rules
+
+
+QUADRATURE_RULES: QuadratureRules = _rules()
+"""The batch's rules, one structure for the compiled loops: 12- and 8-node Gauss-Hermite nodes
+and weights (weights summing to 1), 16-node Gauss-Legendre nodes and weights on [-1, 1]."""
 
 
 class Relation(IntEnum):
@@ -110,68 +138,97 @@ def classify_gaps(p_passable: ArrayLike, eps: float) -> np.ndarray:
     return out
 
 
-# ---------------------------------------------------------------------------------- internals
-def _integrand(
-    theta: FloatArray,
-    m_u: FloatArray,
-    s_u: FloatArray,
-    m_v: FloatArray,
-    s_v: FloatArray,
-    w: FloatArray,
-) -> FloatArray:
-    """Density of P(||d|| <= w) in theta (broadcasting)."""
-    st, ct = np.sin(theta), np.cos(theta)
-    z = (w * st - m_u) / s_u
-    h = w * np.maximum(ct, 0.0)
-    dens = np.exp(-0.5 * z * z) / (math.sqrt(2.0 * math.pi) * s_u) * h
-    inner = special.ndtr((h - m_v) / s_v) - special.ndtr((-h - m_v) / s_v)
-    return dens * inner
+# ------------------------------------------------------------------ readable reference (4.1)
+class EigenFrame(NamedTuple):
+    """The gap vector ``d ~ N(mu, S)`` in the eigenbasis of ``S``: mean and standard deviation
+    along the minor axis (``m_u``, ``s_u``) and the major axis (``m_v``, ``s_v >= s_u``), metres."""
+
+    m_u: float
+    s_u: float
+    m_v: float
+    s_v: float
 
 
-def _p_inside_batch(mu: FloatArray, S: FloatArray, w: FloatArray) -> FloatArray:
-    """P(||d|| <= w) for (m,) pairs ``d ~ N(mu, S)``, ``w > 0`` (compiled loop, see
-    :func:`modeling._compiled.gap.p_inside`).
+def eigen_frame(mu: ArrayLike, S: ArrayLike, width_m: float) -> EigenFrame:
+    """The eigenbasis of the gap's covariance (paper section 4.1; the reference of the compiled
+    :func:`modeling._compiled.gap.eigen_frame`).
 
-    Pairs whose mean is more than ``K_SCREEN_BATCH`` (4.5) major-axis sigmas outside (inside) the
-    disc get 0 (1): ``P(||d - mu|| >= r) <= exp(-r^2 / (2 s_v^2))`` bounds the error by 4.1e-5; so
-    do pairs more than that many radial sigmas outside (``||d|| >= d . mu / |mu|``, a normal with
-    the radial variance), error below 3.4e-6, and pairs whose mean lies more than that many sigmas
-    outside the strip ``|u| <= w`` or ``|v| <= w`` of an eigen-axis. *Smooth* pairs (the window
-    ``m_u +- 8.5 s_u`` within 0.95 w, and the inner term's argument moving by at most one per
-    outer standard deviation) take the 12-node Gauss-Hermite rule in ``u`` (error below 1e-7; the
-    8-node rule where it moves by at most a quarter, error below 1e-12); the
-    others 16-node Gauss-Legendre panels between the breakpoints of
-    :func:`modeling._compiled.gap.breakpoints`, in ``tau = tan(theta / 2)``.
+    The major axis is the eigenvector of the larger eigenvalue, turned to point towards +x, the
+    minor axis that vector turned by +90 degrees. The standard deviations are floored at ``1e-9``
+    of the problem's scale (``w + |mu| + s_v``), so a degenerate covariance has a finite frame.
+
+    Args:
+        mu: (2,) mean of the gap vector, metres.
+        S: (2, 2) its covariance, m^2, symmetric positive semi-definite.
+        width_m: Robot width, metres (the problem's scale).
     """
-    if mu.shape[0] == 0:
-        return np.zeros(0)
-    return _gap_kernel.p_inside_batch(
-        np.ascontiguousarray(mu, dtype=np.float64),
-        np.ascontiguousarray(S, dtype=np.float64),
-        np.ascontiguousarray(w, dtype=np.float64),
-        quadrature_rules(),
+    mu = np.asarray(mu, dtype=np.float64)
+    variances, axes = np.linalg.eigh(np.asarray(S, dtype=np.float64))
+    major = axes[:, 1] if axes[0, 1] >= 0.0 else -axes[:, 1]
+    minor = np.array([-major[1], major[0]])
+    sd_major = math.sqrt(max(float(variances[1]), 0.0))
+    floor = 1e-9 * (width_m + math.hypot(mu[0], mu[1]) + sd_major) + 1e-300
+    return EigenFrame(
+        m_u=float(minor @ mu),
+        s_u=max(math.sqrt(max(float(variances[0]), 0.0)), floor),
+        m_v=float(major @ mu),
+        s_v=max(sd_major, floor),
     )
 
 
-def quadrature_rules() -> tuple[FloatArray, ...]:
-    """The batch rules, one tuple for the compiled loops: 12- and 8-node Gauss-Hermite nodes and
-    weights (weights summing to 1), 16-node Gauss-Legendre nodes and weights on [-1, 1]."""
-    return _RULES
+def integration_breakpoints(frame: EigenFrame, width_m: float) -> FloatArray | None:
+    """The seven sorted breakpoints in ``theta`` (``u = w sin(theta)``) of the integral (paper
+    section 4.1; the reference of :func:`modeling._compiled.gap.breakpoints`).
+
+    The window's ends (``m_u +- 8.5 s_u`` within ``(-w, w)``), the steps of the inner term
+    (``w cos(theta) = |m_v|``), the outer density's peak and the peak -+ 2 ``s_u``, all clipped to
+    the window. Returns None where the window is empty.
+    """
+    w = width_m
+    lo = max(-w, frame.m_u - K_SIGMA * frame.s_u)
+    hi = min(w, frame.m_u + K_SIGMA * frame.s_u)
+    if not hi > lo:
+        return None
+    t_lo, t_hi = np.arcsin(np.clip([lo / w, hi / w], -1.0, 1.0))
+    step = np.arccos(np.clip(abs(frame.m_v) / w, 0.0, 1.0))
+    peaks = frame.m_u + frame.s_u * np.array([0.0, -2.0, 2.0])
+    inner = np.r_[-step, step, np.arcsin(np.clip(peaks / w, -1.0, 1.0))]
+    return np.sort(np.r_[t_lo, np.clip(inner, t_lo, t_hi), t_hi])
 
 
-def _p_inside_scalar(mu: FloatArray, S: FloatArray, w: float) -> float:
-    """P(||d|| <= w) for one pair by adaptive quadrature (exact to ~1e-10)."""
-    mx, my = float(mu[0]), float(mu[1])
-    dist = math.hypot(mx, my)
-    m_u, s_u, m_v, s_v = _gap_kernel.eigen_frame(
-        mx, my, float(S[0, 0]), float(S[0, 1]), float(S[1, 1]), w
-    )
-    if dist - w > _K_SCREEN_EXACT * s_v:
+def gh_slope(frame: EigenFrame, width_m: float) -> float:
+    """How far the inner term's argument moves per outer standard deviation across the window
+    ``m_u +- 8.5 s_u`` (``s_u |u| / (h s_v)`` at its widest; the reference of
+    :func:`modeling._compiled.gap.gh_slope`), or ``inf`` where the window reaches beyond
+    ``GH_MAX_REACH w``. The batch takes the 8-node Gauss-Hermite rule up to
+    :data:`GH_FEW_SLOPE`, the 12-node one up to :data:`GH_MAX_SLOPE`, Gauss-Legendre panels beyond.
+    """
+    reach = abs(frame.m_u) + K_SIGMA * frame.s_u
+    if reach > GH_MAX_REACH * width_m:
+        return math.inf
+    denom = math.sqrt(max(width_m**2 - reach**2, 0.0)) * frame.s_v
+    return frame.s_u * reach / denom if denom > 0.0 else math.inf
+
+
+def _integrand(theta: float, frame: EigenFrame, w: float) -> float:
+    """Density of P(||d|| <= w) in theta: ``phi_u(w sin theta) Inner(w cos theta) w cos theta``."""
+    m_u, s_u, m_v, s_v = frame
+    h = w * max(math.cos(theta), 0.0)
+    z = (w * math.sin(theta) - m_u) / s_u
+    dens = math.exp(-0.5 * z * z) / (math.sqrt(2.0 * math.pi) * s_u) * h
+    return float(dens * (special.ndtr((h - m_v) / s_v) - special.ndtr((-h - m_v) / s_v)))
+
+
+def _p_inside_adaptive(mu: FloatArray, S: FloatArray, w: float) -> float:
+    """P(||d|| <= w) for one gap by adaptive quadrature (exact to ~1e-10; paper section 4.1)."""
+    frame = eigen_frame(mu, S, w)
+    dist = math.hypot(mu[0], mu[1])
+    if dist - w > _K_SCREEN_EXACT * frame.s_v:
         return 0.0
-    if w - dist > _K_SCREEN_EXACT * s_v:
+    if w - dist > _K_SCREEN_EXACT * frame.s_v:
         return 1.0
-    bps = np.empty(7)
-    if not _gap_kernel.breakpoints(m_u, s_u, m_v, w, bps):
+    bps = integration_breakpoints(frame, w)
+    if bps is None:
         return 0.0
     # Breakpoints closer than 1e-12 rad make panels too thin for quad (it warns): merge them.
     pts = np.unique(bps)
@@ -180,14 +237,12 @@ def _p_inside_scalar(mu: FloatArray, S: FloatArray, w: float) -> float:
     pts = pts[keep]
     if pts.shape[0] > 2 and pts[-1] - pts[-2] <= 1e-12:
         pts = np.delete(pts, -2)
-
-    def f(t: float) -> float:
-        return float(_integrand(np.array(t), m_u, s_u, m_v, s_v, w))
-
     total = 0.0
     for t0, t1 in itertools.pairwise(pts):
         if t1 > t0:
-            val, _ = integrate.quad(f, t0, t1, epsabs=1e-13, epsrel=1e-11, limit=200)
+            val, _ = integrate.quad(
+                _integrand, t0, t1, args=(frame, w), epsabs=1e-13, epsrel=1e-11, limit=200
+            )
             total += val
     return min(max(total, 0.0), 1.0)
 
@@ -229,7 +284,7 @@ def gap_passable_probability(
     w = positive(width_m, "width_m", allow_zero=True)
     if w == 0.0:
         return 1.0
-    return 1.0 - _p_inside_scalar(mb - ma, ca + cb, w)
+    return 1.0 - _p_inside_adaptive(mb - ma, ca + cb, w)
 
 
 def gap_passable_probability_batch(
@@ -278,7 +333,20 @@ def gap_passable_probability_batch(
 
 
 def passable_from_difference(mu: FloatArray, S: FloatArray, width_m: FloatArray) -> FloatArray:
-    """``P(||d|| > w)`` for ``d ~ N(mu, S)``: mu (m, 2), S (m, 2, 2), width (m,); no validation."""
+    """``P(||d|| > w)`` for ``d ~ N(mu, S)``: mu (m, 2), S (m, 2, 2), width (m,); no validation.
+
+    A compiled loop over the gaps (:func:`modeling._compiled.gap.p_inside_batch`; its reference
+    is :func:`gap_passable_probability`, within 1e-4). Gaps whose mean is more than 4.5
+    major-axis sigmas outside (inside) the disc get 1 (0): ``P(||d - mu|| >= r) <=
+    exp(-r^2 / (2 s_v^2))`` bounds the error by 4.1e-5; so do gaps more than that many radial
+    sigmas outside (``||d|| >= d . mu / |mu|``, a normal with the radial variance), error below
+    3.4e-6, and gaps whose mean lies more than that many sigmas outside the strip ``|u| <= w`` or
+    ``|v| <= w`` of an eigen-axis. *Smooth* gaps (the window ``m_u +- 8.5 s_u`` within 0.95 w,
+    and :func:`gh_slope` at most :data:`GH_MAX_SLOPE`) take the 12-node Gauss-Hermite rule in
+    ``u`` (error below 1e-7; the 8-node rule up to :data:`GH_FEW_SLOPE`, error below 1e-12); the
+    others 16-node Gauss-Legendre panels between the :func:`integration_breakpoints`, in
+    ``tau = tan(theta / 2)``. A width of 0 gives 1.
+    """
     w = np.asarray(width_m, dtype=np.float64)
     pos = w > 0
     if pos.all():  # the usual case (one robot width): no need to select
@@ -289,18 +357,28 @@ def passable_from_difference(mu: FloatArray, S: FloatArray, width_m: FloatArray)
     return out
 
 
+def _p_inside_batch(mu: FloatArray, S: FloatArray, w: FloatArray) -> FloatArray:
+    if mu.shape[0] == 0:
+        return np.zeros(0)
+    gaps = _gap_kernel.Differences(
+        np.ascontiguousarray(mu, dtype=np.float64),
+        np.ascontiguousarray(S, dtype=np.float64),
+        np.ascontiguousarray(w, dtype=np.float64),
+    )
+    return _gap_kernel.p_inside_batch(gaps, QUADRATURE_RULES)
+
+
 @functools.lru_cache(maxsize=8)
-def _hermite_grid(order: int, minor_order: int) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Tensor Gauss-Hermite rule for the 2-D standard normal: nodes ``z1`` (``order`` of them,
-    major axis), ``z2`` (``minor_order``) and weights, each (order * minor_order,), the weights
-    summing to 1."""
+def _hermite_grid(order: int, minor_order: int) -> HermiteGrid:
+    """Tensor Gauss-Hermite rule for the 2-D standard normal: ``order`` nodes along the major axis,
+    ``minor_order`` along the minor one, each (order * minor_order,), the weights summing to 1."""
     x1, w1 = np.polynomial.hermite_e.hermegauss(order)
     x2, w2 = np.polynomial.hermite_e.hermegauss(minor_order)
     z1, z2 = np.meshgrid(x1, x2, indexing="ij")
-    out = (z1.ravel(), z2.ravel(), np.outer(w1 / w1.sum(), w2 / w2.sum()).ravel())
-    for arr in out:
+    grid = HermiteGrid(z1.ravel(), z2.ravel(), np.outer(w1 / w1.sum(), w2 / w2.sum()).ravel())
+    for arr in grid:
         arr.setflags(write=False)
-    return out
+    return grid
 
 
 def gap_width_moments(
@@ -313,7 +391,9 @@ def gap_width_moments(
     along the minor axis when its standard deviation is below a tenth of the major one (this
     changes the result by less than 1e-4 m). The rule is exact for smooth integrands; ``||d||``
     has a cone at ``d = 0``, so when ``mu`` is within a few standard deviations of 0 the mean is
-    off by up to about 1 cm (4 % of the standard deviation), far less otherwise.
+    off by up to about 1 cm (4 % of the standard deviation), far less otherwise. A compiled loop
+    (:func:`modeling._compiled.gap.width_moments`); its reference is
+    :func:`gap_width_moments_reference`.
 
     Args:
         mu: (m, 2) mean differences, metres.
@@ -328,10 +408,37 @@ def gap_width_moments(
     if mu.shape[0] == 0:
         return np.zeros(0), np.zeros(0)
     order = int(order)
-    mean, std = _gap_kernel.width_moments(
+    moments = _gap_kernel.width_moments(
         np.ascontiguousarray(mu),
         np.ascontiguousarray(S),
         _hermite_grid(order, order),
         _hermite_grid(order, max(4, order // 3)),
     )
-    return mean, std
+    return moments.mean, moments.std
+
+
+def gap_width_moments_reference(
+    mu: FloatArray, S: FloatArray, *, order: int = 12
+) -> tuple[FloatArray, FloatArray]:
+    """:func:`gap_width_moments` in NumPy (the readable reference of the compiled loop; section
+    4.1's width distribution): the nodes ``mu + z1 sd_major e_major + z2 sd_minor e_minor`` of
+    the tensor rule, ``||node||`` averaged with the weights; the second moment exact."""
+    mu = np.asarray(mu, dtype=np.float64).reshape(-1, 2)
+    S = np.asarray(S, dtype=np.float64).reshape(-1, 2, 2)
+    a, b, d = S[:, 0, 0], S[:, 0, 1], S[:, 1, 1]
+    half_tr, r = 0.5 * (a + d), np.hypot(0.5 * (a - d), b)
+    sd_major = np.sqrt(half_tr + r)
+    sd_minor = np.sqrt(np.maximum(half_tr - r, 0.0))
+    phi = 0.5 * np.arctan2(2.0 * b, a - d)  # direction of the major axis: e_major = (c, s)
+    c, s = np.cos(phi)[:, None], np.sin(phi)[:, None]
+    thin = sd_minor < 0.1 * sd_major
+    mean = np.empty(mu.shape[0])
+    for rows, minor_order in ((thin, max(4, order // 3)), (~thin, order)):
+        grid = _hermite_grid(order, minor_order)
+        u = sd_major[rows, None] * grid.major  # (rows, q)
+        v = sd_minor[rows, None] * grid.minor
+        px = mu[rows, 0, None] + c[rows] * u - s[rows] * v  # e_minor = (-s, c)
+        py = mu[rows, 1, None] + s[rows] * u + c[rows] * v
+        mean[rows] = np.sqrt(px * px + py * py) @ grid.weight
+    second = np.einsum("mi,mi->m", mu, mu) + a + d
+    return mean, np.sqrt(np.maximum(second - mean * mean, 0.0))

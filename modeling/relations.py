@@ -16,6 +16,9 @@ nearby pairs, not with the square of the number of segments. Pairs not listed
 are passable with probability above ``1 - eps / 1000`` (a Gaussian tail bound), so their
 classification (passable) is certain. The two endpoints of one segment are impassable to each other
 by construction: a segment is one node of the relation graph.
+
+The steps run as compiled loops (:mod:`modeling._compiled.gap`); each has its readable NumPy
+reference at the end of this module, which the tests compare it with.
 """
 
 from __future__ import annotations
@@ -27,15 +30,26 @@ import numpy as np
 import shapely
 
 from modeling._compiled import gap as _gap_kernel
+from modeling._compiled.gap import PairParams, Segments
+from modeling.gaps import (
+    QUADRATURE_RULES,
+    Relation,
+    classify_gaps,
+    gap_passable_probability,
+)
 from modeling.validation import FloatArray
-from modeling._compiled.worker import worker
-from modeling.gaps import Relation, classify_gaps, quadrature_rules
 
-__all__ = ["SegmentRelations", "closest_points", "segment_relations"]
-
-# Up to this many segments, candidate pairs come from testing every pair's boxes (a compiled
-# loop); beyond, from an STRtree of the boxes.
-_ALL_PAIRS_MAX = 128
+__all__ = [
+    "SegmentRelations",
+    "candidate_pairs",
+    "closest_points",
+    "closest_points_reference",
+    "grown_boxes_reference",
+    "near_pairs_reference",
+    "prune_sigmas",
+    "relation_rows_reference",
+    "segment_relations",
+]
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
@@ -110,12 +124,14 @@ def closest_points(
         ``p2 + t (q2 - p2)`` (after Ericson, Real-Time Collision Detection, 5.1.9). For parallel
         overlapping segments the middle of the overlap is chosen.
     """
-    return _gap_kernel.closest_params_batch(
+    pairs = _gap_kernel.SegmentPairs(
         np.ascontiguousarray(p1, dtype=np.float64),
         np.ascontiguousarray(q1, dtype=np.float64),
         np.ascontiguousarray(p2, dtype=np.float64),
         np.ascontiguousarray(q2, dtype=np.float64),
     )
+    s, t = _gap_kernel.closest_params_batch(pairs)
+    return s, t
 
 
 def candidate_pairs(
@@ -130,38 +146,32 @@ def candidate_pairs(
         eps: Classification tolerance; unlisted pairs are passable with probability above
             ``1 - eps / 1000`` (see :func:`prune_sigmas`).
     """
-    i, j, _, _ = _pairs_and_params(
+    pairs = _pairs_and_params(
         np.ascontiguousarray(endpoints, dtype=np.float64),
         np.ascontiguousarray(cov, dtype=np.float64),
         width_m,
         eps,
     )
-    return np.stack([i, j], axis=1)
+    return np.stack([pairs.i, pairs.j], axis=1)
 
 
 def _pairs_and_params(
     endpoints: FloatArray, cov: FloatArray, width_m: float, eps: float
-) -> tuple[np.ndarray, np.ndarray, FloatArray, FloatArray]:
+) -> PairParams:
     """Candidate pairs ``(i, j)``, sorted, and the closest-point parameters ``(s, t)`` of each."""
-    n = endpoints.shape[0]
-    if n < 2:
+    if endpoints.shape[0] < 2:
         empty = np.zeros(0, dtype=np.int64)
-        return empty, empty, np.zeros(0), np.zeros(0)
+        return PairParams(empty, empty, np.zeros(0), np.zeros(0))
     k = prune_sigmas(eps)
     # Envelope query: the mean segments i and j are at least as far apart as their boxes along
     # either axis, so a pair within width + k (s_i + s_j) has intersecting boxes when each box is
     # grown by width / 2 + k s_i, with s_i the square root of the larger endpoint covariance
-    # trace (an upper bound of the largest eigenvalue). Up to _ALL_PAIRS_MAX segments every pair
-    # is tested in one compiled loop; beyond, an STRtree of the boxes is queried with them (the
-    # same envelope test: the same pairs).
-    sigma, box = _gap_kernel.grown_boxes(endpoints, cov, 0.5 * width_m, k)
-    if n <= _ALL_PAIRS_MAX:
-        q0, q1 = _gap_kernel.box_pairs(box)
-    else:
-        boxes = shapely.box(box[:, 0], box[:, 1], box[:, 2], box[:, 3])
-        q0, q1 = shapely.STRtree(boxes).query(boxes).astype(np.int64, copy=False)
+    # trace (an upper bound of the largest eigenvalue).
+    sigma, box = _gap_kernel.grown_boxes(Segments(endpoints, cov), 0.5 * width_m, k)
+    boxes = shapely.box(box[:, 0], box[:, 1], box[:, 2], box[:, 3])
+    hits = shapely.STRtree(boxes).query(boxes).astype(np.int64, copy=False)
     # Exact filter on the mean distance between the segments, pairs sorted by (i, j).
-    return _gap_kernel.near_pairs(endpoints, sigma, q0, q1, float(width_m), k)
+    return _gap_kernel.near_pairs(endpoints, sigma, hits, float(width_m), k)
 
 
 def prune_sigmas(eps: float) -> float:
@@ -197,49 +207,107 @@ def segment_relations(
     endpoints = np.ascontiguousarray(endpoints, dtype=np.float64)
     cov = np.ascontiguousarray(cov, dtype=np.float64)
     if pairs is None:
-        i, j, s, t = _pairs_and_params(endpoints, cov, width_m, eps)
+        params = _pairs_and_params(endpoints, cov, width_m, eps)
     else:
         i = np.minimum(pairs[:, 0], pairs[:, 1]).astype(np.int64)
         j = np.maximum(pairs[:, 0], pairs[:, 1]).astype(np.int64)
         Ei, Ej = endpoints[i], endpoints[j]
         s, t = closest_points(Ei[:, 0], Ei[:, 1], Ej[:, 0], Ej[:, 1])
-    mi, mj, ci, cj, dist, p = _relation_rows(endpoints, cov, i, j, s, t, float(width_m))
+        params = PairParams(i, j, s, t)
+    rows = _gap_kernel.relation_rows(
+        Segments(endpoints, cov), params, float(width_m), QUADRATURE_RULES
+    )
     return SegmentRelations(
-        i=i,
-        j=j,
-        point_i=mi,
-        point_j=mj,
-        cov_i=ci,
-        cov_j=cj,
-        distance_m=dist,
-        p_passable=p,
-        kind=classify_gaps(p, eps),
+        i=params.i,
+        j=params.j,
+        point_i=rows.point_i,
+        point_j=rows.point_j,
+        cov_i=rows.cov_i,
+        cov_j=rows.cov_j,
+        distance_m=rows.distance,
+        p_passable=rows.p_passable,
+        kind=classify_gaps(rows.p_passable, eps),
     )
 
 
-# Below this many pairs, handing half of them to the worker thread costs more than it saves.
-_SPLIT_MIN_PAIRS = 1024
+# ------------------------------------------------------- readable references (paper 4.1)
+def closest_points_reference(
+    p1: FloatArray, q1: FloatArray, p2: FloatArray, q2: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """:func:`closest_points` in NumPy (the reference of the compiled loop): Ericson's closest
+    points of two segments (Real-Time Collision Detection, 5.1.9), vectorised over m pairs."""
+    d1, d2, r = q1 - p1, q2 - p2, p1 - p2
+    a = np.einsum("ij,ij->i", d1, d1)
+    e = np.einsum("ij,ij->i", d2, d2)
+    f = np.einsum("ij,ij->i", d2, r)
+    c = np.einsum("ij,ij->i", d1, r)
+    b = np.einsum("ij,ij->i", d1, d2)
+    denom = a * e - b * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # Segment 2's endpoints projected onto segment 1, clamped: the parallel case takes the
+        # middle of the overlap; they also clamp s when t is clamped, and serve a point segment 2.
+        s_at_p2 = np.clip(-c / a, 0.0, 1.0)
+        s_at_q2 = np.clip((b - c) / a, 0.0, 1.0)
+        general = denom > 1e-12 * a * e
+        s = np.where(general, np.clip((b * f - c * e) / denom, 0.0, 1.0), 0.5 * (s_at_p2 + s_at_q2))
+        t = (b * s + f) / e
+        s = np.where(t < 0.0, s_at_p2, np.where(t > 1.0, s_at_q2, s))
+        t = np.clip(t, 0.0, 1.0)
+        t_point_1 = np.clip(f / e, 0.0, 1.0)  # segment 1 is a point
+    point_1, point_2 = a <= 1e-18, e <= 1e-18
+    s = np.where(point_1, 0.0, np.where(point_2, s_at_p2, s))
+    t = np.where(point_2, 0.0, np.where(point_1, t_point_1, t))
+    return s, t
 
 
-def _relation_rows(
-    endpoints: FloatArray,
-    cov: FloatArray,
-    i: np.ndarray,
-    j: np.ndarray,
-    s: FloatArray,
-    t: FloatArray,
-    width_m: float,
-) -> tuple[FloatArray, ...]:
-    """:func:`modeling._compiled.gap.relation_rows` of the pairs, a large batch in two halves at
-    once (the compiled loop releases the interpreter lock; each row is computed on its own, so
-    the result is the same)."""
-    rules = quadrature_rules()
-    m = i.shape[0]
-    if m < _SPLIT_MIN_PAIRS:
-        return _gap_kernel.relation_rows(endpoints, cov, i, j, s, t, width_m, rules)
-    h = m // 2
-    second = worker().submit(
-        _gap_kernel.relation_rows, endpoints, cov, i[h:], j[h:], s[h:], t[h:], width_m, rules
+def grown_boxes_reference(
+    endpoints: FloatArray, cov: FloatArray, half_width: float, k: float
+) -> tuple[FloatArray, FloatArray]:
+    """Each segment's sigma bound (n,) (the square root of the larger endpoint covariance trace)
+    and its box (n, 4) ``x_min, y_min, x_max, y_max`` grown by ``half_width + k sigma`` (the
+    reference of the compiled loop)."""
+    sigma = np.sqrt((cov[:, :, 0, 0] + cov[:, :, 1, 1]).max(axis=1))
+    grow = (half_width + k * sigma)[:, None]
+    return sigma, np.hstack([endpoints.min(axis=1) - grow, endpoints.max(axis=1) + grow])
+
+
+def near_pairs_reference(
+    endpoints: FloatArray, sigma: FloatArray, hits: np.ndarray, limit: float, k: float
+) -> PairParams:
+    """The hits (2, m) ``i < j`` whose mean segments are at most ``limit + k (sigma_i +
+    sigma_j)`` apart, sorted by ``(i, j)``, with their closest-point parameters (the reference
+    of the compiled loop)."""
+    upper = hits[0] < hits[1]
+    i, j = hits[0][upper], hits[1][upper]
+    order = np.lexsort((j, i))
+    i, j = i[order].astype(np.int64), j[order].astype(np.int64)
+    Ei, Ej = endpoints[i], endpoints[j]
+    s, t = closest_points_reference(Ei[:, 0], Ei[:, 1], Ej[:, 0], Ej[:, 1])
+    pa = Ei[:, 0] + s[:, None] * (Ei[:, 1] - Ei[:, 0])
+    pb = Ej[:, 0] + t[:, None] * (Ej[:, 1] - Ej[:, 0])
+    keep = np.hypot(*(pb - pa).T) <= limit + k * (sigma[i] + sigma[j])
+    return PairParams(i[keep], j[keep], s[keep], t[keep])
+
+
+def relation_rows_reference(
+    endpoints: FloatArray, cov: FloatArray, pairs: PairParams, width_m: float
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The closest points of the pairs, their interpolated covariances ``(1 - s)^2 C_0 + s^2
+    C_1``, the distance and :func:`~modeling.gaps.gap_passable_probability` (the reference of
+    the compiled loop, whose passability agrees to 1e-4).
+
+    Returns:
+        ``(point_i, point_j, cov_i, cov_j, distance_m, p_passable)``.
+    """
+
+    def interpolate(seg: np.ndarray, u: FloatArray) -> tuple[FloatArray, FloatArray]:
+        mean = (1.0 - u)[:, None] * endpoints[seg, 0] + u[:, None] * endpoints[seg, 1]
+        c = ((1.0 - u) ** 2)[:, None, None] * cov[seg, 0] + (u**2)[:, None, None] * cov[seg, 1]
+        return mean, c
+
+    mi, ci = interpolate(pairs.i, pairs.s)
+    mj, cj = interpolate(pairs.j, pairs.t)
+    p = np.array(
+        [gap_passable_probability(*args, width_m) for args in zip(mi, ci, mj, cj, strict=True)]
     )
-    first = _gap_kernel.relation_rows(endpoints, cov, i[:h], j[:h], s[:h], t[:h], width_m, rules)
-    return tuple(np.concatenate(halves) for halves in zip(first, second.result(), strict=True))
+    return mi, mj, ci, cj, np.hypot(*(mj - mi).T), p.reshape(-1)

@@ -8,13 +8,16 @@ rule for smooth pairs (8 nodes for the smoothest), 16-node Gauss-Legendre panels
 a model costs a few array allocations instead of a few hundred small array operations.
 ``Phi(x)`` is ``erfc(-x / sqrt 2) / 2``.
 
-Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not import
-Numba.
+Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not
+import Numba. Each loop has a readable reference beside its public function (in
+:mod:`modeling.gaps` or :mod:`modeling.relations`), and ``tests/modeling/test_compiled_gap.py``
+compares the two on seeded random inputs.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -29,23 +32,123 @@ GH_MAX_SLOPE = 1.0  # ... and s_u |u| / (h s_v) <= this over the window: 12 node
 GH_FEW_SLOPE = 0.25  # up to this slope 8 nodes are enough (error < 1e-12)
 
 
+class QuadratureRules(NamedTuple):
+    """The batch rules: Gauss-Hermite nodes and weights (weights summing to 1) for smooth pairs,
+    the shorter such rule for the flattest ones, Gauss-Legendre nodes and weights on [-1, 1]."""
+
+    gh_nodes: np.ndarray
+    gh_weights: np.ndarray
+    gh_few_nodes: np.ndarray
+    gh_few_weights: np.ndarray
+    gl_nodes: np.ndarray
+    gl_weights: np.ndarray
+
+
+class Differences(NamedTuple):
+    """Gap vectors ``d ~ N(mean, cov)`` and robot widths: (m, 2), (m, 2, 2), (m,) (metres, m^2)."""
+
+    mean: np.ndarray
+    cov: np.ndarray
+    width: np.ndarray
+
+
+class HermiteGrid(NamedTuple):
+    """Tensor Gauss-Hermite rule of the 2-D standard normal: nodes along the major axis, along the
+    minor axis, weights summing to 1; each (q,)."""
+
+    major: np.ndarray
+    minor: np.ndarray
+    weight: np.ndarray
+
+
+class Moments(NamedTuple):
+    """Mean and standard deviation of ``||d||``: each (m,), metres."""
+
+    mean: np.ndarray
+    std: np.ndarray
+
+
+class SegmentPairs(NamedTuple):
+    """Endpoints of m pairs of segments ``p1-q1`` and ``p2-q2``: each (m, 2), metres."""
+
+    p1: np.ndarray
+    q1: np.ndarray
+    p2: np.ndarray
+    q2: np.ndarray
+
+
+class ClosestParams(NamedTuple):
+    """Parameters in [0, 1] of the closest points ``p1 + s (q1 - p1)``, ``p2 + t (q2 - p2)``."""
+
+    s: np.ndarray
+    t: np.ndarray
+
+
+class Segments(NamedTuple):
+    """Uncertain segments: mean endpoints (n, 2, 2), metres; endpoint covariances (n, 2, 2, 2)."""
+
+    ends: np.ndarray
+    cov: np.ndarray
+
+
+class GrownBoxes(NamedTuple):
+    """Each segment's sigma bound (n,) and its grown box (n, 4): x_min, y_min, x_max, y_max."""
+
+    sigma: np.ndarray
+    box: np.ndarray
+
+
+class PairParams(NamedTuple):
+    """Pairs ``i < j`` of segments (m,) and the parameters ``s``, ``t`` (m,) of their closest
+    points."""
+
+    i: np.ndarray
+    j: np.ndarray
+    s: np.ndarray
+    t: np.ndarray
+
+
+class RelationRows(NamedTuple):
+    """Closest points (m, 2), their covariances (m, 2, 2), distance (m,) and ``P(||d|| > w)``."""
+
+    point_i: np.ndarray
+    point_j: np.ndarray
+    cov_i: np.ndarray
+    cov_j: np.ndarray
+    distance: np.ndarray
+    p_passable: np.ndarray
+
+
+class Segment(NamedTuple):
+    """One mean segment from ``(px, py)`` to ``(qx, qy)``, metres (scalars of a compiled loop)."""
+
+    px: float
+    py: float
+    qx: float
+    qy: float
+
+
+class Gap(NamedTuple):
+    """One gap vector ``d ~ N((mx, my), [[sxx, sxy], [syx, syy]])`` and the robot width ``w > 0``
+    (scalars of a compiled loop)."""
+
+    mx: float
+    my: float
+    sxx: float
+    sxy: float
+    syx: float
+    syy: float
+    w: float
+
+
 @compiled_helper
-def closest_params(
-    p1x: float,
-    p1y: float,
-    q1x: float,
-    q1y: float,
-    p2x: float,
-    p2y: float,
-    q2x: float,
-    q2y: float,
-) -> tuple[float, float]:
-    """Parameters ``(s, t)`` in [0, 1] of the closest points of segments p1-q1 and p2-q2 (after
-    Ericson, Real-Time Collision Detection, 5.1.9; parallel overlapping segments: the middle of
-    the overlap)."""
-    d1x, d1y = q1x - p1x, q1y - p1y
-    d2x, d2y = q2x - p2x, q2y - p2y
-    rx, ry = p1x - p2x, p1y - p2y
+def closest_params(first: Segment, second: Segment) -> tuple[float, float]:
+    """Parameters ``(s, t)`` in [0, 1] of the closest points of two segments (after Ericson,
+    Real-Time Collision Detection, 5.1.9; parallel overlapping segments: the middle of the
+    overlap)."""
+    d1x, d1y = first.qx - first.px, first.qy - first.py
+    d2x, d2y = second.qx - second.px, second.qy - second.py
+    rx, ry = first.px - second.px, first.py - second.py
     a = d1x * d1x + d1y * d1y
     e = d2x * d2x + d2y * d2y
     f = d2x * rx + d2y * ry
@@ -75,6 +178,12 @@ def closest_params(
 
 
 @compiled_helper
+def segment(ends: np.ndarray, a: int) -> Segment:
+    """Segment ``a`` of the (n, 2, 2) mean endpoints ``ends``."""
+    return Segment(ends[a, 0, 0], ends[a, 0, 1], ends[a, 1, 0], ends[a, 1, 1])
+
+
+@compiled_helper
 def _inner(h: float, m_v: float, s_v: float) -> float:
     """``Phi((h - m_v) / s_v) - Phi((-h - m_v) / s_v)``."""
     return 0.5 * (math.erfc(-(h - m_v) / s_v * _SQRT1_2) - math.erfc(-(-h - m_v) / s_v * _SQRT1_2))
@@ -91,14 +200,13 @@ def principal_axes(sxx: float, sxy: float, syy: float) -> tuple[float, float, fl
 
 
 @compiled_helper
-def eigen_frame(
-    mx: float, my: float, sxx: float, sxy: float, syy: float, w: float
-) -> tuple[float, float, float, float]:
-    """Mean and standard deviation of ``d ~ N((mx, my), S)`` along the minor (u) and major (v)
-    axes of ``S``: ``(m_u, s_u, m_v, s_v)``; the deviations are floored at ``1e-9`` of the
-    problem's scale (``w + |mu| + s_v``)."""
-    l_major, l_minor, c, s = principal_axes(sxx, sxy, syy)
-    floor = 1e-9 * (w + math.hypot(mx, my) + math.sqrt(l_major)) + 1e-300
+def eigen_frame(gap: Gap) -> tuple[float, float, float, float]:
+    """Mean and standard deviation of the gap vector along the minor (u) and major (v) axes of its
+    covariance: ``(m_u, s_u, m_v, s_v)``; the deviations are floored at ``1e-9`` of the problem's
+    scale (``w + |mu| + s_v``)."""
+    mx, my = gap.mx, gap.my
+    l_major, l_minor, c, s = principal_axes(gap.sxx, gap.sxy, gap.syy)
+    floor = 1e-9 * (gap.w + math.hypot(mx, my) + math.sqrt(l_major)) + 1e-300
     return (
         -s * mx + c * my,
         max(math.sqrt(l_minor), floor),
@@ -150,50 +258,30 @@ def gh_slope(m_u: float, s_u: float, s_v: float, w: float) -> float:
 
 
 @compiled_helper
-def p_inside(
-    mx: float,
-    my: float,
-    sxx: float,
-    sxy: float,
-    syx: float,
-    syy: float,
+def _gauss_hermite(
+    m_u: float, s_u: float, abs_mv: float, s_v: float, w: float, x: np.ndarray, wt: np.ndarray
+) -> float:
+    """Smooth pairs: the inner term averaged over ``u ~ N(m_u, s_u^2)`` by the rule ``(x, wt)``."""
+    total = 0.0
+    for q in range(x.shape[0]):
+        u = m_u + s_u * x[q]
+        total += wt[q] * _inner(math.sqrt(w * w - u * u), abs_mv, s_v)
+    return min(max(total, 0.0), 1.0)
+
+
+@compiled_helper
+def _legendre_panels(
+    m_u: float,
+    s_u: float,
+    abs_mv: float,
+    s_v: float,
     w: float,
-    rules: tuple[np.ndarray, ...],
+    gl: QuadratureRules,
     bps: np.ndarray,
 ) -> float:
-    """``P(||d|| <= w)`` for ``d ~ N((mx, my), [[sxx, sxy], [syx, syy]])``, ``w > 0``.
-
-    ``rules``: :func:`modeling.gaps.quadrature_rules` (Gauss-Hermite nodes and weights, the
-    shorter such rule for the flattest pairs, Gauss-Legendre nodes and weights on [-1, 1]);
-    ``bps``: scratch space of 7 floats.
-    """
-    gh_x, gh_w, gh_few_x, gh_few_w, gl_x, gl_w = rules
-    m_u, s_u, m_v, s_v = eigen_frame(mx, my, sxx, sxy, syy, w)
-    dist = math.hypot(mx, my)
-    # Screening by tail bounds (see modeling.gaps._p_inside_batch).
-    k = K_SCREEN_BATCH
-    if w - dist > k * s_v:
-        return 1.0
-    if dist - w > k * s_v or abs(m_u) - w > k * s_u or abs(m_v) - w > k * s_v:
-        return 0.0
-    if dist > 0.0:
-        ex, ey = mx / dist, my / dist
-        s_e = math.sqrt(ex * (sxx * ex + sxy * ey) + ey * (syx * ex + syy * ey))
-        if dist - w > k * s_e:
-            return 0.0
-    abs_mv = abs(m_v)
-    slope = gh_slope(m_u, s_u, s_v, w)
-    if slope <= GH_MAX_SLOPE:
-        # Smooth: Gauss-Hermite in u (the shorter rule where the inner term is flatter).
-        nodes, weights = (gh_few_x, gh_few_w) if slope <= GH_FEW_SLOPE else (gh_x, gh_w)
-        total = 0.0
-        for q in range(nodes.shape[0]):
-            u = m_u + s_u * nodes[q]
-            total += weights[q] * _inner(math.sqrt(w * w - u * u), abs_mv, s_v)
-        return min(max(total, 0.0), 1.0)
-    # Gauss-Legendre panels in tau = tan(theta / 2), u = w sin(theta), between the breakpoints.
-    if not breakpoints(m_u, s_u, m_v, w, bps):
-        return 0.0
+    """The others: Gauss-Legendre panels in ``tau = tan(theta / 2)``, ``u = w sin(theta)``,
+    between the sorted breakpoints ``bps`` (7,)."""
+    gl_x, gl_w = gl.gl_nodes, gl.gl_weights
     norm = 2.0 * _INV_SQRT_2PI / s_u
     total = 0.0
     p0 = math.tan(0.5 * bps[0])
@@ -216,56 +304,68 @@ def p_inside(
     return min(max(total, 0.0), 1.0)
 
 
+@compiled_helper
+def p_inside(gap: Gap, rules: QuadratureRules, bps: np.ndarray) -> float:
+    """``P(||d|| <= w)`` for one gap (``rules``: :data:`modeling.gaps.QUADRATURE_RULES`; ``bps``:
+    scratch space of 7 floats). Screening by tail bounds, then a Gauss-Hermite rule or
+    Gauss-Legendre panels (see :func:`modeling.gaps.passable_from_difference`)."""
+    mx, my, w = gap.mx, gap.my, gap.w
+    m_u, s_u, m_v, s_v = eigen_frame(gap)
+    dist = math.hypot(mx, my)
+    k = K_SCREEN_BATCH
+    if w - dist > k * s_v:
+        return 1.0
+    if dist - w > k * s_v or abs(m_u) - w > k * s_u or abs(m_v) - w > k * s_v:
+        return 0.0
+    if dist > 0.0:
+        ex, ey = mx / dist, my / dist
+        s_e = math.sqrt(ex * (gap.sxx * ex + gap.sxy * ey) + ey * (gap.syx * ex + gap.syy * ey))
+        if dist - w > k * s_e:
+            return 0.0
+    abs_mv = abs(m_v)
+    slope = gh_slope(m_u, s_u, s_v, w)
+    if slope <= GH_FEW_SLOPE:
+        return _gauss_hermite(m_u, s_u, abs_mv, s_v, w, rules.gh_few_nodes, rules.gh_few_weights)
+    if slope <= GH_MAX_SLOPE:
+        return _gauss_hermite(m_u, s_u, abs_mv, s_v, w, rules.gh_nodes, rules.gh_weights)
+    if not breakpoints(m_u, s_u, m_v, w, bps):
+        return 0.0
+    return _legendre_panels(m_u, s_u, abs_mv, s_v, w, rules, bps)
+
+
 @compiled_on_first_call
-def p_inside_batch(
-    mu: np.ndarray,
-    S: np.ndarray,
-    w: np.ndarray,
-    rules: tuple[np.ndarray, ...],
-) -> np.ndarray:
-    """(m,) ``P(||d|| <= w)`` for ``d ~ N(mu, S)``: mu (m, 2), S (m, 2, 2), w (m,) > 0;
-    ``rules`` as :func:`p_inside`."""
+def p_inside_batch(gaps: Differences, rules: QuadratureRules) -> np.ndarray:
+    """(m,) ``P(||d|| <= w)`` of each gap (``w > 0``); ``rules`` as :func:`p_inside`."""
+    mu, S, w = gaps.mean, gaps.cov, gaps.width
     m = mu.shape[0]
     out = np.empty(m)
     bps = np.empty(7)
     for k in range(m):
-        out[k] = p_inside(
-            mu[k, 0], mu[k, 1], S[k, 0, 0], S[k, 0, 1], S[k, 1, 0], S[k, 1, 1], w[k], rules, bps
-        )  # fmt: skip
+        gap = Gap(mu[k, 0], mu[k, 1], S[k, 0, 0], S[k, 0, 1], S[k, 1, 0], S[k, 1, 1], w[k])
+        out[k] = p_inside(gap, rules, bps)
     return out
 
 
 @compiled_on_first_call
-def closest_params_batch(
-    p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """(m,) parameters ``s`` and ``t`` of :func:`closest_params` for (m, 2) endpoint arrays."""
+def closest_params_batch(pairs: SegmentPairs) -> ClosestParams:
+    """:func:`closest_params` of each of m pairs of segments."""
+    p1, q1, p2, q2 = pairs.p1, pairs.q1, pairs.p2, pairs.q2
     m = p1.shape[0]
     s = np.empty(m)
     t = np.empty(m)
     for k in range(m):
         s[k], t[k] = closest_params(
-            p1[k, 0], p1[k, 1], q1[k, 0], q1[k, 1], p2[k, 0], p2[k, 1], q2[k, 0], q2[k, 1]
+            Segment(p1[k, 0], p1[k, 1], q1[k, 0], q1[k, 1]),
+            Segment(p2[k, 0], p2[k, 1], q2[k, 0], q2[k, 1]),
         )
-    return s, t
+    return ClosestParams(s, t)
 
 
 @compiled_on_first_call
-def grown_boxes(
-    ends: np.ndarray, cov: np.ndarray, half_width: float, k: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Each segment's sigma bound and its bounding box grown by ``half_width + k sigma``.
-
-    Args:
-        ends: (n, 2, 2) mean endpoints.
-        cov: (n, 2, 2, 2) endpoint covariances.
-        half_width: Half the robot width.
-        k: Multiple of the sigma each box is grown by (besides ``half_width``).
-
-    Returns:
-        ``(sigma, box)``: (n,) the square root of the larger endpoint covariance trace, and (n, 4)
-        ``x_min, y_min, x_max, y_max`` of each grown box.
-    """
+def grown_boxes(segments: Segments, half_width: float, k: float) -> GrownBoxes:
+    """Each segment's sigma bound (the square root of the larger endpoint covariance trace) and
+    its bounding box grown by ``half_width + k sigma``."""
+    ends, cov = segments.ends, segments.cov
     n = ends.shape[0]
     sigma = np.empty(n)
     box = np.empty((n, 4))
@@ -278,57 +378,32 @@ def grown_boxes(
         box[a, 1] = min(ends[a, 0, 1], ends[a, 1, 1]) - grow
         box[a, 2] = max(ends[a, 0, 0], ends[a, 1, 0]) + grow
         box[a, 3] = max(ends[a, 0, 1], ends[a, 1, 1]) + grow
-    return sigma, box
-
-
-@compiled_on_first_call
-def box_pairs(box: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The pairs ``i < j`` of boxes (n, 4) ``x_min, y_min, x_max, y_max`` that meet: what an
-    STRtree of the boxes queried with themselves finds (its envelope test, bounds included), by
-    testing every pair (for a few dozen boxes, cheaper than building the tree)."""
-    n = box.shape[0]
-    q0 = np.empty(n * (n - 1) // 2, np.int64)
-    q1 = np.empty(n * (n - 1) // 2, np.int64)
-    c = 0
-    for a in range(n):
-        for b in range(a + 1, n):
-            if not (
-                box[b, 0] > box[a, 2]
-                or box[b, 2] < box[a, 0]
-                or box[b, 1] > box[a, 3]
-                or box[b, 3] < box[a, 1]
-            ):
-                q0[c] = a
-                q1[c] = b
-                c += 1
-    return q0[:c], q1[:c]
+    return GrownBoxes(sigma, box)
 
 
 @compiled_on_first_call
 def near_pairs(
-    ends: np.ndarray, sigma: np.ndarray, q0: np.ndarray, q1: np.ndarray, width: float, k: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The pairs ``i < j`` among the query hits ``(q0[r], q1[r])`` (either order, repeats
-    allowed only as the two orders of one pair) whose mean segments are at most
-    ``width + k (sigma[i] + sigma[j])`` apart.
+    ends: np.ndarray, sigma: np.ndarray, hits: np.ndarray, limit: float, k: float
+) -> PairParams:
+    """The pairs ``i < j`` among the query hits whose mean segments are at most
+    ``limit + k (sigma[i] + sigma[j])`` apart, sorted by ``(i, j)``, with their closest-point
+    parameters.
 
     Args:
         ends: (n, 2, 2) mean endpoints.
         sigma: (n,) bound on each segment's endpoint standard deviations.
-        q0, q1: (m,) candidate pairs (e.g. an STRtree's hits of the segments against themselves).
-        width: Robot width.
+        hits: (2, m) candidate pairs, either order, repeats allowed only as the two orders of
+            one pair (an STRtree's hits of the boxes against themselves).
+        limit: The distance limit without uncertainty (the robot width).
         k: Multiple of the summed sigmas.
-
-    Returns:
-        ``(i, j, s, t)``: the kept pairs sorted by ``(i, j)`` and their closest-point parameters.
     """
     n = ends.shape[0]
-    m = q0.shape[0]
+    m = hits.shape[1]
     key = np.empty(m, dtype=np.int64)
     c = 0
     for r in range(m):
-        if q0[r] < q1[r]:
-            key[c] = q0[r] * n + q1[r]
+        if hits[0, r] < hits[1, r]:
+            key[c] = hits[0, r] * n + hits[1, r]
             c += 1
     key = np.sort(key[:c])  # unique keys: sorted by (i, j)
     i_out = np.empty(c, dtype=np.int64)
@@ -338,40 +413,27 @@ def near_pairs(
     n_keep = 0
     for r in range(c):
         a, b = key[r] // n, key[r] % n
-        p1x, p1y, q1x, q1y = ends[a, 0, 0], ends[a, 0, 1], ends[a, 1, 0], ends[a, 1, 1]
-        p2x, p2y, q2x, q2y = ends[b, 0, 0], ends[b, 0, 1], ends[b, 1, 0], ends[b, 1, 1]
-        s, t = closest_params(p1x, p1y, q1x, q1y, p2x, p2y, q2x, q2y)
-        dx = (p2x + t * (q2x - p2x)) - (p1x + s * (q1x - p1x))
-        dy = (p2y + t * (q2y - p2y)) - (p1y + s * (q1y - p1y))
-        if math.hypot(dx, dy) <= width + k * (sigma[a] + sigma[b]):
+        first, second = segment(ends, a), segment(ends, b)
+        s, t = closest_params(first, second)
+        dx = (second.px + t * (second.qx - second.px)) - (first.px + s * (first.qx - first.px))
+        dy = (second.py + t * (second.qy - second.py)) - (first.py + s * (first.qy - first.py))
+        if math.hypot(dx, dy) <= limit + k * (sigma[a] + sigma[b]):
             i_out[n_keep] = a
             j_out[n_keep] = b
             s_out[n_keep] = s
             t_out[n_keep] = t
             n_keep += 1
-    return i_out[:n_keep], j_out[:n_keep], s_out[:n_keep], t_out[:n_keep]
+    return PairParams(i_out[:n_keep], j_out[:n_keep], s_out[:n_keep], t_out[:n_keep])
 
 
 @compiled_on_first_call
 def relation_rows(
-    ends: np.ndarray,
-    cov: np.ndarray,
-    i: np.ndarray,
-    j: np.ndarray,
-    s: np.ndarray,
-    t: np.ndarray,
-    width: float,
-    rules: tuple[np.ndarray, ...],
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Closest points of pairs ``(i, j)`` at parameters ``(s, t)``, their covariances
-    (interpolated from the endpoints': ``(1 - s)^2 C_0 + s^2 C_1``), distance and
-    ``P(||d|| > width)`` (1 for ``width == 0``).
-
-    Returns:
-        ``(point_i, point_j, cov_i, cov_j, distance, p_passable)``: (m, 2), (m, 2),
-        (m, 2, 2), (m, 2, 2), (m,), (m,).
-    """
-    m = i.shape[0]
+    segments: Segments, pairs: PairParams, width: float, rules: QuadratureRules
+) -> RelationRows:
+    """Closest points of the pairs, their covariances (interpolated from the endpoints':
+    ``(1 - s)^2 C_0 + s^2 C_1``), distance and ``P(||d|| > width)`` (1 for ``width == 0``)."""
+    ends, cov = segments.ends, segments.cov
+    m = pairs.i.shape[0]
     pi = np.empty((m, 2))
     pj = np.empty((m, 2))
     ci = np.empty((m, 2, 2))
@@ -380,8 +442,8 @@ def relation_rows(
     p = np.empty(m)
     bps = np.empty(7)
     for k in range(m):
-        a, b = i[k], j[k]
-        sa, sb = s[k], t[k]
+        a, b = pairs.i[k], pairs.j[k]
+        sa, sb = pairs.s[k], pairs.t[k]
         ua, ub = 1.0 - sa, 1.0 - sb
         for r in range(2):
             pi[k, r] = ua * ends[a, 0, r] + sa * ends[a, 1, r]
@@ -393,29 +455,26 @@ def relation_rows(
         dy = pj[k, 1] - pi[k, 1]
         dist[k] = math.hypot(dx, dy)
         if width > 0.0:
-            p[k] = 1.0 - p_inside(
+            gap = Gap(
                 dx, dy,
                 ci[k, 0, 0] + cj[k, 0, 0], ci[k, 0, 1] + cj[k, 0, 1],
                 ci[k, 1, 0] + cj[k, 1, 0], ci[k, 1, 1] + cj[k, 1, 1],
-                width, rules, bps,
+                width,
             )  # fmt: skip
+            p[k] = 1.0 - p_inside(gap, rules, bps)
         else:
             p[k] = 1.0
-    return pi, pj, ci, cj, dist, p
+    return RelationRows(pi, pj, ci, cj, dist, p)
 
 
 @compiled_on_first_call
 def width_moments(
-    mu: np.ndarray,
-    S: np.ndarray,
-    grid: tuple[np.ndarray, np.ndarray, np.ndarray],
-    grid_thin: tuple[np.ndarray, np.ndarray, np.ndarray],
-) -> tuple[np.ndarray, np.ndarray]:
+    mu: np.ndarray, S: np.ndarray, grid: HermiteGrid, grid_thin: HermiteGrid
+) -> Moments:
     """Mean and standard deviation of ``||d||`` for ``d ~ N(mu, S)`` (see
     :func:`modeling.gaps.gap_width_moments`): a tensor Gauss-Hermite rule in the eigenbasis of
-    ``S`` (``grid``: nodes along the major axis, nodes along the minor one, weights summing to 1),
-    ``grid_thin`` where the minor standard deviation is below a tenth of the major one; the second
-    moment exact."""
+    ``S``, ``grid_thin`` where the minor standard deviation is below a tenth of the major one;
+    the second moment exact."""
     m = mu.shape[0]
     mean = np.empty(m)
     std = np.empty(m)
@@ -423,17 +482,17 @@ def width_moments(
         a, d = S[k, 0, 0], S[k, 1, 1]
         l_major, l_minor, c, s = principal_axes(a, S[k, 0, 1], d)
         sd_major, sd_minor = math.sqrt(l_major), math.sqrt(l_minor)
-        n1, n2, w = grid_thin if sd_minor < 0.1 * sd_major else grid
+        g = grid_thin if sd_minor < 0.1 * sd_major else grid
         total = 0.0
-        for q in range(w.shape[0]):
+        for q in range(g.weight.shape[0]):
             # Node mu + z1 sd_major e_major + z2 sd_minor e_minor; e_major = (c, s),
             # e_minor = (-s, c).
-            u = sd_major * n1[q]
-            v = sd_minor * n2[q]
+            u = sd_major * g.major[q]
+            v = sd_minor * g.minor[q]
             px = mu[k, 0] + c * u - s * v
             py = mu[k, 1] + s * u + c * v
-            total += math.sqrt(px * px + py * py) * w[q]
+            total += math.sqrt(px * px + py * py) * g.weight[q]
         mean[k] = total
         second = mu[k, 0] * mu[k, 0] + mu[k, 1] * mu[k, 1] + a + d
         std[k] = math.sqrt(max(second - total * total, 0.0))
-    return mean, std
+    return Moments(mean, std)
