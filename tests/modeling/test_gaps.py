@@ -101,7 +101,7 @@ def test_agrees_with_monte_carlo_on_random_anisotropic_cases() -> None:
     assert np.max(np.abs(batch - mc)) < 0.002
 
 
-def _linearised(a, ca, b, cb, w) -> float:
+def _linearised(a: np.ndarray, ca: np.ndarray, b: np.ndarray, cb: np.ndarray, w: float) -> float:
     """The wrong method: the distance as a normal with the variance along the connecting line."""
     d = b - a
     n = np.linalg.norm(d)
