@@ -1,12 +1,11 @@
 """Compiled loops of the relations between floor segments (:mod:`modeling.relations`,
 :mod:`modeling.gaps`): closest points, their interpolated uncertainty, and ``P(||d|| <= w)``.
 
-The arithmetic is that of the vectorised NumPy formulation they replace (see
-:mod:`modeling.gaps` for the method: screening by Gaussian tail bounds, a 12-node Gauss-Hermite
-rule for smooth pairs (8 nodes for the smoothest), 16-node Gauss-Legendre panels in
+The method is that of :mod:`modeling.gaps` (screening by Gaussian tail bounds, a 12-node
+Gauss-Hermite rule for smooth pairs (8 nodes for the smoothest), 16-node Gauss-Legendre panels in
 ``tau = tan(theta / 2)`` between the breakpoints otherwise), written as one pass per pair so that
-a model costs a few array allocations instead of a few hundred small array operations.
-``Phi(x)`` is ``erfc(-x / sqrt 2) / 2``.
+a model costs a few array allocations instead of a few hundred small array operations. Loops take
+and return the small named structures below. ``Phi(x)`` is ``erfc(-x / sqrt 2) / 2``.
 
 Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not
 import Numba. Each loop has a readable reference beside its public function (in
