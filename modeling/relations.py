@@ -122,7 +122,8 @@ def closest_points(
     Returns:
         ``(s, t)``, each (m,) in [0, 1]: the closest points are ``p1 + s (q1 - p1)`` and
         ``p2 + t (q2 - p2)`` (after Ericson, Real-Time Collision Detection, 5.1.9). For parallel
-        overlapping segments the middle of the overlap is chosen.
+        overlapping segments the middle of the overlap is chosen. A compiled loop; its reference
+        is :func:`closest_points_reference`.
     """
     pairs = _gap_kernel.SegmentPairs(
         np.ascontiguousarray(p1, dtype=np.float64),
@@ -158,7 +159,8 @@ def candidate_pairs(
 def _pairs_and_params(
     endpoints: FloatArray, cov: FloatArray, width_m: float, eps: float
 ) -> PairParams:
-    """Candidate pairs ``(i, j)``, sorted, and the closest-point parameters ``(s, t)`` of each."""
+    """Candidate pairs ``(i, j)``, sorted, and the closest-point parameters ``(s, t)`` of each
+    (compiled loops; references :func:`grown_boxes_reference`, :func:`near_pairs_reference`)."""
     if endpoints.shape[0] < 2:
         empty = np.zeros(0, dtype=np.int64)
         return PairParams(empty, empty, np.zeros(0), np.zeros(0))
@@ -214,6 +216,8 @@ def segment_relations(
         Ei, Ej = endpoints[i], endpoints[j]
         s, t = closest_points(Ei[:, 0], Ei[:, 1], Ej[:, 0], Ej[:, 1])
         params = PairParams(i, j, s, t)
+    # Closest points, covariances, distance and p_passable of each pair: a compiled loop (its
+    # reference: relation_rows_reference).
     rows = _gap_kernel.relation_rows(
         Segments(endpoints, cov), params, float(width_m), QUADRATURE_RULES
     )
