@@ -16,13 +16,13 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling.validation import keyword_options, positive
 from modeling.faces import close_faces as close_faces_of
 from modeling.matching import match_segments
 from modeling.observation import FloorObservation
 from modeling.rig import HeadPose, StereoRig
 from modeling.segments import extract_segment_pair, extract_segments
 from modeling.triangulation import TriangulationOptions, triangulate_to_floor
+from modeling.validation import keyword_options, positive
 
 if TYPE_CHECKING:  # pragma: no cover
     from modeling.model import EnvironmentModel
