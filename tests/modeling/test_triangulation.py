@@ -7,14 +7,18 @@ import math
 
 import numpy as np
 import pytest
-from tests.modeling.synth import render_pair
 
 from modeling.faces import FACE_SOURCE
 from modeling.matching import StereoMatches
 from modeling.observation import FloorObservation
 from modeling.pipeline import stereo_to_floor
 from modeling.rig import HeadPose, StereoRig
-from modeling.triangulation import triangulate_points, triangulate_to_floor
+from modeling.triangulation import (
+    TriangulationOptions,
+    triangulate_points,
+    triangulate_to_floor,
+)
+from tests.modeling.synth import render_pair
 
 RIG = StereoRig()
 POSE = HeadPose(x_m=1.0, y_m=2.0, heading_rad=math.pi / 2, height_m=0.8)
@@ -159,6 +163,29 @@ def test_wrong_arguments_raise_naming_them() -> None:
         triangulate_to_floor(m, RIG, POSE, min_height_m=1.0, max_height_m=0.5)
     with pytest.raises(ValueError, match="min_probability"):
         triangulate_to_floor(m, RIG, POSE, min_probability=1.0)
+    with pytest.raises(ValueError, match="max_height_m"):
+        triangulate_to_floor(m, RIG, POSE, max_height_m=float("inf"))
+    with pytest.raises(ValueError, match="bogus"):
+        triangulate_to_floor(m, RIG, POSE, bogus=1.0)
+    with pytest.raises(ValueError, match="TriangulationOptions"):
+        triangulate_to_floor(m, RIG, POSE, {"min_height_m": 0.1})  # type: ignore[arg-type]
+
+
+def test_options_object_and_keywords_agree() -> None:
+    u = 200.0
+    v0 = RIG.focal_px * (0.8 - 0.9) / 2.0 + RIG.cy_px
+    v1 = RIG.focal_px * (0.8 - 0.1) / 2.0 + RIG.cy_px
+    m = _matches([(1, 1.0, u, v0, v1, 15.6)])
+    band = TriangulationOptions(min_height_m=0.3, max_height_m=0.5)
+    by_object = triangulate_to_floor(m, RIG, POSE, band)
+    by_keywords = triangulate_to_floor(m, RIG, POSE, min_height_m=0.3, max_height_m=0.5)
+    np.testing.assert_allclose(by_object.segments[0].height_m, [0.5, 0.3], atol=1e-9)
+    np.testing.assert_array_equal(
+        by_object.segments[0].endpoints, by_keywords.segments[0].endpoints
+    )
+    # a keyword overrides the object's field
+    wide = triangulate_to_floor(m, RIG, POSE, band, max_height_m=1.0)
+    np.testing.assert_allclose(wide.segments[0].height_m, [0.9, 0.3], atol=1e-9)
 
 
 def test_floor_covariance_is_the_world_xy_block_of_the_3d_one() -> None:

@@ -14,6 +14,9 @@ def test_defaults_use_pixel_centre_principal_point() -> None:
     rig = StereoRig()
     assert (rig.width_px, rig.height_px, rig.focal_px, rig.baseline_m) == (320, 240, 260.0, 0.12)
     assert rig.cx_px == 159.5 and rig.cy_px == 119.5
+    assert rig.principal_point_px == (159.5, 119.5)
+    assert StereoRig(cx_px=100.0, cy_px=80.0).principal_point_px == (100.0, 80.0)
+    assert StereoRig().sigma_px == 0.5
     np.testing.assert_array_equal(rig.K, [[260, 0, 159.5], [0, 260, 119.5], [0, 0, 1]])
 
 
