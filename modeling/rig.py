@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["HeadPose", "StereoRig"]
+from modeling.validation import FloatArray
 
-FloatArray = NDArray[np.float64]
+__all__ = ["HeadPose", "StereoRig"]
 
 
 def _as_points(P: ArrayLike, name: str, dim: int = 3) -> FloatArray:
