@@ -111,7 +111,7 @@ def test_match_segments_names_its_arguments() -> None:
         ((segs, segs, (260.0, 0.12)), "rig"),
     ):
         with pytest.raises(ValueError, match=name):
-            match_segments(*args)  # type: ignore[arg-type]
+            match_segments(*args)
 
 
 def test_triangulate_to_floor_names_its_arguments() -> None:
@@ -122,7 +122,7 @@ def test_triangulate_to_floor_names_its_arguments() -> None:
         ((m, RIG, np.zeros(4)), "head_pose"),
     ):
         with pytest.raises(ValueError, match=name):
-            triangulate_to_floor(*args)  # type: ignore[arg-type]
+            triangulate_to_floor(*args)
     with pytest.raises(ValueError, match="left_endpoints"):
         StereoMatches(**{**{k: getattr(m, k) for k in m.__dataclass_fields__}, "left_endpoints": 0})
 
@@ -139,4 +139,4 @@ def test_stereo_to_floor_names_its_arguments() -> None:
         ((img, img, RIG, None), "head_pose"),
     ):
         with pytest.raises(ValueError, match=name):
-            stereo_to_floor(*args)  # type: ignore[arg-type]
+            stereo_to_floor(*args)

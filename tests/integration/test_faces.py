@@ -4,6 +4,7 @@ a real gap between two obstacles is not. Ground truth: the obstacles' footprints
 from __future__ import annotations
 
 import os
+from typing import Any
 
 import numpy as np
 import pytest
@@ -14,7 +15,7 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 from modeling.faces import FACE_SOURCE, FaceOptions, close_faces, face_pairs
 from modeling.matching import match_segments
 from modeling.model import build_model
-from modeling.observation import FloorObservation
+from modeling.observation import FloorObservation, FloorSegment
 from modeling.pipeline import to_gray
 from modeling.rig import HeadPose, StereoRig
 from modeling.segments import ImageSegments, extract_segment_pair
@@ -27,7 +28,9 @@ HEAD = HeadPose(x_m=0.0, y_m=0.0, heading_rad=0.0, height_m=0.8)
 ROBOT_WIDTH_M = 0.5
 
 
-def _observe(obstacles: tuple) -> tuple[ImageSegments, FloorObservation, shapely.Geometry]:
+def _observe(
+    obstacles: tuple[Any, ...],
+) -> tuple[ImageSegments, FloorObservation, shapely.Geometry]:
     """Render the scene from ``HEAD`` with seeded pixel noise; the left segments, the floor
     observation and the union of the true footprints."""
     scene = Scene(
@@ -55,7 +58,7 @@ def _box(
     y0: float,
     y1: float,
     x_front: float = 3.0,
-    color: tuple = (0.55, 0.35, 0.2),
+    color: tuple[float, float, float] = (0.55, 0.35, 0.2),
     height_m: float = 1.5,
 ) -> object:
     """A plain box (by default 1.5 m tall: above the robot, only its bottom edge can close it)
@@ -64,7 +67,7 @@ def _box(
     return make_obstacle("box", fp, height_m=height_m, color=color)
 
 
-def _added(before: FloorObservation, after: FloorObservation) -> list:
+def _added(before: FloorObservation, after: FloorObservation) -> list[FloorSegment]:
     return list(after.segments[len(before.segments) :])
 
 
@@ -139,7 +142,7 @@ def test_nothing_to_close_returns_the_observation_itself() -> None:
         ({"bogus": 1.0}, "bogus"),
     ],
 )
-def test_bad_options_name_themselves(kwargs: dict, name: str) -> None:
+def test_bad_options_name_themselves(kwargs: dict[str, Any], name: str) -> None:
     with pytest.raises(ValueError, match=name):
         face_pairs(ImageSegments.empty((240, 320)), FloorObservation(), **kwargs)
 
