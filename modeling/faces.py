@@ -15,11 +15,11 @@ an obstacle where there is one. Both edges must be near-vertical in the image, w
 ``max_range_m`` of the camera and at most ``max_length_m`` apart on the floor, and both must reach
 down to the floor (their lowest kept point at most ``floor_reach_m`` high). The near-horizontal
 lines must cover at least ``min_cover`` of the image line between the two lower ends, each line
-within ``tol_px`` of it. Top edges (``tops=True``: both tops below the kept band's top, at equal
-heights within ``top_match_m``) are off by default: in furnished rooms the long top edges of
-tables and shelves pass by the tops of other objects' edges, and about one top join in four was
-false on the evaluation scenes, against about one bottom join in twenty (``scripts/evaluate.py``
-suite, checked against the true footprints).
+within ``tol_px`` of it (the options: :class:`FaceOptions`). Top edges (``tops=True``: both tops
+below the kept band's top, at equal heights within ``top_match_m``) are off by default: in
+furnished rooms the long top edges of tables and shelves pass by the tops of other objects' edges,
+and about one top join in four was false on the evaluation scenes, against about one bottom join
+in twenty (``scripts/evaluate.py`` suite, checked against the true footprints).
 
 This is an addition to the paper's pipeline (which uses vertical and oblique segments only); it
 can be turned off where the paper's pipeline alone is wanted (``close_faces=False`` in the env and
@@ -28,36 +28,182 @@ in :func:`modeling.pipeline.stereo_to_floor`).
 
 from __future__ import annotations
 
-from typing import Any
+import itertools
+from dataclasses import dataclass
+from typing import Any, NamedTuple
 
 import numpy as np
+from numpy.typing import NDArray
 
-from modeling._compiled.face import face_joins
-from modeling.validation import positive
 from modeling.observation import FloorObservation, FloorSegment
 from modeling.segments import ImageSegments
+from modeling.validation import boolean, positive, with_overrides
 
-__all__ = ["FACE_SOURCE", "close_faces", "face_pairs"]
+__all__ = ["FACE_SOURCE", "FaceOptions", "close_faces", "face_pairs"]
 
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 
 #: ``FloorSegment.source`` of a face's segment (it joins two measured segments, is not one).
 FACE_SOURCE = -2
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
+class FaceOptions:
+    """Options of :func:`face_pairs` and :func:`close_faces`.
+
+    Attributes:
+        tol_px: Largest distance of a horizontal line's ends from the image line joining the two
+            ends, px (> 0).
+        extend_px: The ends are first moved this far along their edges (down for the bottom,
+            up for the top), px (>= 0): an edge's fit stops short of the corner (trimmed, blurred
+            rows).
+        min_cover: Smallest fraction of that image line the horizontal lines must cover, in
+            (0, 1].
+        max_slope: Largest ``|du/dv|`` of a vertical edge (in the left image), > 0.
+        max_range_m: Both edges within this distance of the camera, metres (> 0).
+        max_length_m: Largest distance between the two floor points, metres (> 0).
+        floor_reach_m: A bottom edge joins edges whose lowest kept points are at most this high,
+            metres (> 0).
+        top_match_m: A top edge joins edges whose top heights differ by at most this, metres
+            (> 0).
+        max_height_m: Top of the height band the floor segments were kept in (a top at it was cut
+            off, not seen), metres (> 0).
+        tops: Also join the upper ends (see the module docstring: off by default).
+
+    Raises:
+        ValueError: an option out of range (naming it).
+    """
+
+    tol_px: float = 3.0
+    extend_px: float = 3.0
+    min_cover: float = 0.8
+    max_slope: float = 0.2
+    max_range_m: float = 5.0
+    max_length_m: float = 4.0
+    floor_reach_m: float = 0.1
+    top_match_m: float = 0.1
+    max_height_m: float = 1.0
+    tops: bool = False
+
+    def __post_init__(self) -> None:
+        for name in (
+            "tol_px",
+            "max_slope",
+            "max_range_m",
+            "max_length_m",
+            "floor_reach_m",
+            "top_match_m",
+            "max_height_m",
+        ):
+            object.__setattr__(self, name, positive(getattr(self, name), name))
+        object.__setattr__(
+            self, "extend_px", positive(self.extend_px, "extend_px", allow_zero=True)
+        )
+        if not (0.0 < self.min_cover <= 1.0):
+            raise ValueError(f"min_cover must be in (0, 1], got {self.min_cover!r}")
+        object.__setattr__(self, "min_cover", float(self.min_cover))
+        boolean(self.tops, "tops")
+
+
+class _Edges(NamedTuple):
+    """The candidate edges (unambiguous floor segments of image segments) and the
+    near-horizontal image lines that may join them.
+
+    Attributes:
+        floor_pts: (c, 2, 2) each edge's floor points (top end, bottom end), metres.
+        ends_img: (c, 2, 2) each edge's image ends (top, bottom), px.
+        slope: (c,) each edge's du/dv.
+        top_h: (c,) each edge's top height, metres.
+        lines: (k, 2, 2) the near-horizontal image lines, px.
+    """
+
+    floor_pts: FloatArray
+    ends_img: FloatArray
+    slope: FloatArray
+    top_h: FloatArray
+    lines: FloatArray
+
+
+def _joins(edges: _Edges, eligible: IntArray, end: int, opts: FaceOptions) -> list[tuple[int, int]]:
+    """The pairs of ``eligible`` edges whose ``end``s (1: bottom, 0: top) a line joins (the test
+    of this module, an addition to the paper).
+
+    For each pair of eligible edges (tops: at equal heights within ``top_match_m``) at most
+    ``max_length_m`` apart on the floor, the two image ends are moved ``extend_px`` rows along
+    their edges (down for the bottom, up for the top) and joined by an image line (at least 1 px
+    long). The lines whose two ends lie within ``tol_px`` of it are projected onto it (parameters
+    clipped to [0, 1]); the pair is joined when the union of those intervals covers at least
+    ``min_cover`` of it.
+
+    Args:
+        edges: The candidate edges and the lines.
+        eligible: (e,) the candidates that may be joined at this end, ascending.
+        end: 1 (bottom) or 0 (top).
+        opts: The thresholds.
+
+    Returns:
+        The joined pairs (indices into the candidates), the left one in the image first, in the
+        order of ``itertools.combinations(eligible, 2)``.
+    """
+    floor_pts, ends_img, slope, top_h, hor = edges
+    pairs = [
+        (i, j)
+        for i, j in itertools.combinations(eligible.tolist(), 2)
+        if end == 1 or abs(top_h[i] - top_h[j]) <= opts.top_match_m
+    ]
+    if not pairs:
+        return []
+    a, b = np.array(pairs, dtype=np.int64).T
+    d_floor = floor_pts[b, end] - floor_pts[a, end]
+    short = np.hypot(d_floor[:, 0], d_floor[:, 1]) <= opts.max_length_m
+    # the image ends, moved along their edges past the last edge point
+    step = (1.0 if end == 1 else -1.0) * opts.extend_px
+    P = ends_img[a, end]
+    P[:, 0] += step * slope[a]
+    P[:, 1] += step
+    D = ends_img[b, end]
+    D[:, 0] += step * slope[b]
+    D[:, 1] += step
+    D -= P
+    L2 = D[:, 0] * D[:, 0] + D[:, 1] * D[:, 1]
+    keep = np.flatnonzero(short & (L2 >= 1.0))
+    a, b, P, D, L2 = a[keep], b[keep], P[keep], D[keep], L2[keep]
+    # each line's two ends against each pair's image line: offset across it and parameter
+    rx = hor[None, :, :, 0] - P[:, None, None, 0]  # (q, k, 2 ends)
+    ry = hor[None, :, :, 1] - P[:, None, None, 1]
+    dx, dy = D[:, None, None, 0], D[:, None, None, 1]
+    inv = (1.0 / L2)[:, None, None]
+    near = (np.abs(dx * ry - dy * rx) <= opts.tol_px * np.sqrt(L2)[:, None, None]).all(axis=2)
+    along = (dx * rx + dy * ry) * inv
+    t0 = along.min(axis=2).clip(0.0, 1.0)
+    t1 = along.max(axis=2).clip(0.0, 1.0)
+    out: list[tuple[int, int]] = []
+    for q in range(a.shape[0]):
+        lines = np.flatnonzero(near[q])
+        if lines.size and _covered(t0[q, lines].tolist(), t1[q, lines].tolist()) >= opts.min_cover:
+            i, j = int(a[q]), int(b[q])
+            out.append((j, i) if ends_img[i, end, 0] > ends_img[j, end, 0] else (i, j))
+    return out
+
+
+def _covered(starts: list[float], stops: list[float]) -> float:
+    """Length of the union of the intervals ``[starts[k], stops[k]]``."""
+    total, lo, hi = 0.0, 0.0, -1.0
+    for s0, s1 in sorted(zip(starts, stops, strict=True)):
+        if s0 > hi:  # a new run
+            total += max(hi - lo, 0.0)
+            lo, hi = s0, s1
+        else:
+            hi = max(hi, s1)
+    return total + max(hi - lo, 0.0)
+
+
 def face_pairs(
     left: ImageSegments,
     floor: FloorObservation,
-    *,
-    tol_px: float = 3.0,
-    extend_px: float = 3.0,
-    min_cover: float = 0.8,
-    max_slope: float = 0.2,
-    max_range_m: float = 5.0,
-    max_length_m: float = 4.0,
-    floor_reach_m: float = 0.1,
-    top_match_m: float = 0.1,
-    max_height_m: float = 1.0,
-    tops: bool = False,
+    options: FaceOptions | None = None,
+    **overrides: Any,
 ) -> list[tuple[int, int, int]]:
     """The pairs of floor segments joined by the top or bottom edge of a face.
 
@@ -65,44 +211,22 @@ def face_pairs(
         left: The left image's segments (with their ``horizontal`` lines) that ``floor`` was
             triangulated from (``FloorSegment.source`` indexes them).
         floor: The floor observation; only its unambiguous segments are paired.
-        tol_px: Largest distance of a horizontal line's ends from the image line joining the two
-            ends, px.
-        extend_px: The ends are first moved this far along their edges (down for the bottom,
-            up for the top), px: an edge's fit stops short of the corner (trimmed, blurred rows).
-        min_cover: Smallest fraction of that image line the horizontal lines must cover.
-        max_slope: Largest ``|du/dv|`` of a vertical edge (in the left image).
-        max_range_m: Both edges within this distance of the camera, metres.
-        max_length_m: Largest distance between the two floor points, metres.
-        floor_reach_m: A bottom edge joins edges whose lowest kept points are at most this high.
-        top_match_m: A top edge joins edges whose top heights differ by at most this, metres.
-        max_height_m: Top of the height band the floor segments were kept in (a top at it was cut
-            off, not seen), metres.
-        tops: Also join the upper ends (see the module docstring: off by default).
+        options: The thresholds (defaults: ``FaceOptions()``).
+        **overrides: Fields of :class:`FaceOptions` replacing those of ``options``.
 
     Returns:
         ``(i, j, end)`` triples: indices into ``floor.segments`` (image order, ``i`` left of
         ``j``) and the end they are joined at (1: bottom, 0: top).
 
     Raises:
-        ValueError: ``left`` or ``floor`` of the wrong type, or an option out of range.
+        ValueError: ``left`` or ``floor`` of the wrong type, an unknown option or one out of
+            range.
     """
     if not isinstance(left, ImageSegments):
         raise ValueError(f"left must be ImageSegments, got {type(left).__name__}")
     if not isinstance(floor, FloorObservation):
         raise ValueError(f"floor must be a FloorObservation, got {type(floor).__name__}")
-    for name, value in (
-        ("tol_px", tol_px),
-        ("max_slope", max_slope),
-        ("max_range_m", max_range_m),
-        ("max_length_m", max_length_m),
-        ("floor_reach_m", floor_reach_m),
-        ("top_match_m", top_match_m),
-        ("max_height_m", max_height_m),
-    ):
-        positive(value, name)
-    positive(extend_px, "extend_px", allow_zero=True)
-    if not (0.0 < min_cover <= 1.0):
-        raise ValueError(f"min_cover must be in (0, 1], got {min_cover!r}")
+    opts = with_overrides(options, FaceOptions, overrides)
     hor = left.horizontal
     segs = floor.segments
     if hor.shape[0] == 0 or len(segs) < 2:
@@ -125,39 +249,23 @@ def face_pairs(
     slope = left.slope[src]
     mid = 0.5 * (floor_pts[:, 0] + floor_pts[:, 1]) - floor.viewpoint[:2]
     rng = np.hypot(mid[:, 0], mid[:, 1])
-    vertical = (np.abs(slope) <= max_slope) & (rng <= max_range_m)
-    reach_floor = vertical & (heights_lo <= floor_reach_m)
-    top_seen = vertical & (top_h < max_height_m - 0.02)
-    ends_img = left.endpoints[src]  # (c, 2, 2): top, bottom end in the image
+    vertical = (np.abs(slope) <= opts.max_slope) & (rng <= opts.max_range_m)
+    reach_floor = vertical & (heights_lo <= opts.floor_reach_m)
+    top_seen = vertical & (top_h < opts.max_height_m - 0.02)
+    edges = _Edges(floor_pts, left.endpoints[src], slope, top_h, hor)
     out: list[tuple[int, int, int]] = []
-    for end in (1, 0) if tops else (1,):
-        # every pair of eligible edges (bottoms: both reach the floor; tops: both seen, at equal
-        # heights), short enough on the floor, whose image ends a horizontal line joins (one
-        # compiled pass: ``_face_kernel.face_joins``)
-        first, second = face_joins(
-            np.flatnonzero(reach_floor if end == 1 else top_seen),
-            end,
-            top_h,
-            float(top_match_m),
-            floor_pts,
-            ends_img,
-            slope,
-            hor,
-            (1.0 if end == 1 else -1.0) * extend_px,
-            float(max_length_m),
-            float(tol_px),
-            float(min_cover),
-        )
-        out.extend(
-            (i, j, end) for i, j in zip(cand[first].tolist(), cand[second].tolist(), strict=True)
-        )
+    for end in (1, 0) if opts.tops else (1,):
+        # bottoms: both edges reach the floor; tops: both seen (below the band's top)
+        eligible = np.flatnonzero(reach_floor if end == 1 else top_seen)
+        out.extend((int(cand[a]), int(cand[b]), end) for a, b in _joins(edges, eligible, end, opts))
     return out
 
 
 def close_faces(
     left: ImageSegments,
     floor: FloorObservation,
-    **options: Any,
+    options: FaceOptions | None = None,
+    **overrides: Any,
 ) -> FloorObservation:
     """``floor`` with a floor segment along each face found by :func:`face_pairs`.
 
@@ -168,12 +276,13 @@ def close_faces(
     Args:
         left: As :func:`face_pairs`.
         floor: As :func:`face_pairs`.
-        **options: The keyword options of :func:`face_pairs`.
+        options: As :func:`face_pairs`.
+        **overrides: As :func:`face_pairs`.
 
     Returns:
         A new observation (``floor`` itself when no face is found).
     """
-    pairs = face_pairs(left, floor, **options)
+    pairs = face_pairs(left, floor, options, **overrides)
     if not pairs:
         return floor
     segs = floor.segments

@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -15,13 +16,13 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling.validation import keyword_options, positive
 from modeling.faces import close_faces as close_faces_of
 from modeling.matching import match_segments
 from modeling.observation import FloorObservation
 from modeling.rig import HeadPose, StereoRig
 from modeling.segments import extract_segment_pair, extract_segments
-from modeling.triangulation import triangulate_to_floor
+from modeling.triangulation import TriangulationOptions, triangulate_to_floor
+from modeling.validation import keyword_options, positive
 
 if TYPE_CHECKING:  # pragma: no cover
     from modeling.model import EnvironmentModel
@@ -37,7 +38,7 @@ def _keyword_options(fn: Callable[..., Any]) -> frozenset[str]:
 # The options of each stage, read from its signature (the one place they are listed).
 _EXTRACT_KEYS = _keyword_options(extract_segments)
 _MATCH_KEYS = _keyword_options(match_segments)
-_TRIANGULATE_KEYS = _keyword_options(triangulate_to_floor)
+_TRIANGULATE_KEYS = frozenset(f.name for f in dataclasses.fields(TriangulationOptions))
 
 
 def to_gray(image: NDArray[np.uint8], name: str = "image") -> NDArray[np.uint8]:
@@ -53,7 +54,7 @@ def to_gray(image: NDArray[np.uint8], name: str = "image") -> NDArray[np.uint8]:
     if image.ndim == 2:
         return image
     if image.ndim == 3 and image.shape[2] == 3:
-        return cv2.cvtColor(np.ascontiguousarray(image), cv2.COLOR_RGB2GRAY)
+        return np.asarray(cv2.cvtColor(np.ascontiguousarray(image), cv2.COLOR_RGB2GRAY), np.uint8)
     raise ValueError(f"{name} must have shape (H, W) or (H, W, 3), got {image.shape}")
 
 

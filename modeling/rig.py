@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["HeadPose", "StereoRig"]
+from modeling.validation import FloatArray
 
-FloatArray = NDArray[np.float64]
+__all__ = ["HeadPose", "StereoRig"]
 
 
 def _as_points(P: ArrayLike, name: str, dim: int = 3) -> FloatArray:
@@ -43,8 +43,10 @@ class StereoRig:
         baseline_m: Distance between the optical centres, metres (right camera at +x_cam).
         width_px: Image width in pixels.
         height_px: Image height in pixels.
-        cx_px: Principal point u, pixels (pixel-centre convention); ``None`` means the image centre.
-        cy_px: Principal point v, pixels; ``None`` means the image centre.
+        cx_px: Principal point u, pixels (pixel-centre convention); ``None`` (the default) means
+            the image centre, resolved at construction (read it as a float through
+            :attr:`principal_point_px`).
+        cy_px: Principal point v, pixels; ``None`` means the image centre, as ``cx_px``.
         sigma_px: Nominal standard deviation of one edge point's horizontal position, pixels
             (quantisation plus noise); used where a least-squares fit has too few points.
         min_depth_m: Nearest depth the matcher accepts (largest disparity), metres.
@@ -76,22 +78,27 @@ class StereoRig:
             raise ValueError(
                 f"max_depth_m ({self.max_depth_m}) must exceed min_depth_m ({self.min_depth_m})"
             )
-        if self.cx_px is None:
-            object.__setattr__(self, "cx_px", (self.width_px - 1) / 2.0)
-        if self.cy_px is None:
-            object.__setattr__(self, "cy_px", (self.height_px - 1) / 2.0)
-        assert self.cx_px is not None and self.cy_px is not None
-        if not (math.isfinite(self.cx_px) and -0.5 <= self.cx_px <= self.width_px - 0.5):
+        cx = (self.width_px - 1) / 2.0 if self.cx_px is None else self.cx_px
+        cy = (self.height_px - 1) / 2.0 if self.cy_px is None else self.cy_px
+        if not (math.isfinite(cx) and -0.5 <= cx <= self.width_px - 0.5):
             raise ValueError(
-                f"cx_px must lie inside the image [-0.5, {self.width_px - 0.5}], got {self.cx_px!r}"
+                f"cx_px must lie inside the image [-0.5, {self.width_px - 0.5}], got {cx!r}"
             )
-        if not (math.isfinite(self.cy_px) and -0.5 <= self.cy_px <= self.height_px - 0.5):
+        if not (math.isfinite(cy) and -0.5 <= cy <= self.height_px - 0.5):
             raise ValueError(
-                f"cy_px must lie inside the image [-0.5, {self.height_px - 0.5}], "
-                f"got {self.cy_px!r}"
+                f"cy_px must lie inside the image [-0.5, {self.height_px - 0.5}], got {cy!r}"
             )
+        object.__setattr__(self, "cx_px", cx)
+        object.__setattr__(self, "cy_px", cy)
 
     # ------------------------------------------------------------------ derived values
+    @property
+    def principal_point_px(self) -> tuple[float, float]:
+        """``(cx_px, cy_px)``, pixels: never ``None`` once constructed."""
+        cx, cy = self.cx_px, self.cy_px
+        assert cx is not None and cy is not None  # resolved in __post_init__
+        return cx, cy
+
     @classmethod
     def from_fov(
         cls, *, width_px: int = 320, height_px: int = 240, hfov_deg: float = 64.0, **kw: float
@@ -105,24 +112,23 @@ class StereoRig:
     @property
     def K(self) -> FloatArray:
         """3x3 intrinsic matrix of either camera (pixel-centre convention)."""
-        return np.array(
-            [[self.focal_px, 0.0, self.cx_px], [0.0, self.focal_px, self.cy_px], [0.0, 0.0, 1.0]]
-        )
+        cx, cy = self.principal_point_px
+        return np.array([[self.focal_px, 0.0, cx], [0.0, self.focal_px, cy], [0.0, 0.0, 1.0]])
 
     @property
     def hfov_rad(self) -> float:
         """Horizontal field of view of the left camera, radians."""
-        assert self.cx_px is not None
-        left = math.atan((self.cx_px + 0.5) / self.focal_px)
-        right = math.atan((self.width_px - 0.5 - self.cx_px) / self.focal_px)
+        cx, _ = self.principal_point_px
+        left = math.atan((cx + 0.5) / self.focal_px)
+        right = math.atan((self.width_px - 0.5 - cx) / self.focal_px)
         return left + right
 
     @property
     def vfov_rad(self) -> float:
         """Vertical field of view, radians."""
-        assert self.cy_px is not None
-        top = math.atan((self.cy_px + 0.5) / self.focal_px)
-        bottom = math.atan((self.height_px - 0.5 - self.cy_px) / self.focal_px)
+        _, cy = self.principal_point_px
+        top = math.atan((cy + 0.5) / self.focal_px)
+        bottom = math.atan((self.height_px - 0.5 - cy) / self.focal_px)
         return top + bottom
 
     @property
@@ -166,9 +172,10 @@ class StereoRig:
         Z = P[:, 2]
         with np.errstate(divide="ignore", invalid="ignore"):
             inv = np.where(Z > 0, 1.0 / Z, np.nan)
-        u_left = self.focal_px * P[:, 0] * inv + self.cx_px
-        v = self.focal_px * P[:, 1] * inv + self.cy_px
-        u_right = self.focal_px * (P[:, 0] - self.baseline_m) * inv + self.cx_px
+        cx, cy = self.principal_point_px
+        u_left = self.focal_px * P[:, 0] * inv + cx
+        v = self.focal_px * P[:, 1] * inv + cy
+        u_right = self.focal_px * (P[:, 0] - self.baseline_m) * inv + cx
         return np.stack([u_left, v], axis=1), np.stack([u_right, v], axis=1)
 
     def triangulate(self, u_left: ArrayLike, v: ArrayLike, disparity_px: ArrayLike) -> FloatArray:
@@ -186,8 +193,9 @@ class StereoRig:
         vv = np.atleast_1d(np.asarray(v, dtype=np.float64))
         d = np.atleast_1d(np.asarray(disparity_px, dtype=np.float64))
         Z = self.depth_m(d)
-        X = (u - self.cx_px) * Z / self.focal_px
-        Y = (vv - self.cy_px) * Z / self.focal_px
+        cx, cy = self.principal_point_px
+        X = (u - cx) * Z / self.focal_px
+        Y = (vv - cy) * Z / self.focal_px
         return np.stack([X, Y, Z], axis=-1)
 
     def in_image(self, uv: ArrayLike) -> NDArray[np.bool_]:

@@ -24,22 +24,64 @@ world-frame ``R J S J^T R^T``, which ``triangulate_points`` gives in full).
 
 Ambiguity (section 3.3): a left segment with one surviving match gives a ``FloorSegment``; one with
 several gives an ``AmbiguousSegment`` whose probabilities are renormalised over the survivors.
+
+The per-row work (usable rows, band clip, floor points and covariances, grouping) is one compiled
+pass, :func:`modeling._compiled.tri.floor_rows`; :func:`floor_rows_reference` is the same step
+in plain NumPy, the one to read (and to change first: a test holds the two equal).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from modeling._compiled.tri import floor_rows
-from modeling.validation import FloatArray
+from modeling._compiled.tri import FloorFrame, FloorRows, MatchRows, floor_rows
 from modeling.matching import StereoMatches
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
 from modeling.rig import HeadPose, StereoRig
+from modeling.validation import FloatArray, number, with_overrides
 
-__all__ = ["triangulate_points", "triangulate_to_floor"]
+__all__ = [
+    "TriangulationOptions",
+    "floor_rows_reference",
+    "triangulate_points",
+    "triangulate_to_floor",
+]
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class TriangulationOptions:
+    """Options of :func:`triangulate_to_floor`.
+
+    Attributes:
+        min_height_m: Lowest height above the floor that is kept, m (the floor itself is not an
+            obstacle).
+        max_height_m: Highest height kept, m (the robot's height); above ``min_height_m``.
+        min_probability: Candidates below this probability are ignored, in [0, 1).
+
+    Raises:
+        ValueError: a non-finite height, ``min_height_m >= max_height_m`` or ``min_probability``
+            outside [0, 1) (naming the option).
+    """
+
+    min_height_m: float = 0.05
+    max_height_m: float = 1.0
+    min_probability: float = 1e-6
+
+    def __post_init__(self) -> None:
+        low = number(self.min_height_m, "min_height_m")
+        high = number(self.max_height_m, "max_height_m")
+        if low >= high:
+            raise ValueError(f"min_height_m ({low}) must be below max_height_m ({high})")
+        p = number(self.min_probability, "min_probability", low=0.0, high=1.0, strict=False)
+        if p >= 1.0:
+            raise ValueError(f"min_probability must be in [0, 1), got {self.min_probability!r}")
+        object.__setattr__(self, "min_height_m", low)
+        object.__setattr__(self, "max_height_m", high)
+        object.__setattr__(self, "min_probability", p)
 
 
 def triangulate_points(
@@ -64,10 +106,10 @@ def triangulate_points(
         ``(P_cam (n, 3) m, cov_cam (n, 3, 3) m^2)`` in the left camera frame.
     """
     b = rig.baseline_m
-    assert rig.cx_px is not None and rig.cy_px is not None
+    cx, cy = rig.principal_point_px
     inv_d = 1.0 / d
-    xu = (u - rig.cx_px) * b * inv_d
-    yv = (v - rig.cy_px) * b * inv_d
+    xu = (u - cx) * b * inv_d
+    yv = (v - cy) * b * inv_d
     Z = rig.fb * inv_d
     P = np.stack([xu, yv, Z], axis=-1)
     n = u.shape[0]
@@ -87,29 +129,15 @@ def triangulate_points(
     return P, cov
 
 
-def _slot_setter(cls: type, name: str) -> Callable[[object, object], None]:
-    """The ``__set__`` of slot ``name`` of the slotted dataclass ``cls``: it writes the slot as
-    ``object.__setattr__`` does, without looking the name up on every call (about half the cost;
-    a triangulation builds a few dozen segments of four slots each)."""
-    setter: Callable[[object, object], None] = vars(cls)[name].__set__
-    return setter
-
-
-_set_endpoints = _slot_setter(FloorSegment, "endpoints")
-_set_cov = _slot_setter(FloorSegment, "cov")
-_set_height_m = _slot_setter(FloorSegment, "height_m")
-_set_source = _slot_setter(FloorSegment, "source")
-
-
 def _segment(ends: FloatArray, cov: FloatArray, heights: FloatArray, source: int) -> FloorSegment:
     """A ``FloorSegment`` from read-only views of arrays already checked in bulk (finite, symmetric
     positive definite): skips the per-segment validation of the constructor, which would cost more
     than the whole triangulation."""
     seg = object.__new__(FloorSegment)
-    _set_endpoints(seg, ends)
-    _set_cov(seg, cov)
-    _set_height_m(seg, heights)
-    _set_source(seg, source)
+    object.__setattr__(seg, "endpoints", ends)
+    object.__setattr__(seg, "cov", cov)
+    object.__setattr__(seg, "height_m", heights)
+    object.__setattr__(seg, "source", source)
     return seg
 
 
@@ -143,27 +171,128 @@ def _observation(
     return obs
 
 
+def floor_rows_reference(rows: MatchRows, frame: FloorFrame) -> FloorRows:
+    """The usable matches clipped to the height band and triangulated to the floor (sections 2,
+    3.2): the readable NumPy form of the compiled :func:`modeling._compiled.tri.floor_rows`, which
+    gives the same rows bit for bit.
+
+    1. Usable rows: probable enough (``min_probability``), in front of the camera (positive
+       disparity at both ends), finite (a NaN or an infinity anywhere makes the row's sum
+       non-finite).
+    2. Height band (section 2): along the segment (``t`` in [0, 1] from the top end) the row and
+       the disparity are affine, so the height ``h(t) = H - (v(t) - cy) b / d(t)`` is monotonic
+       and crosses a height at ``t = (k d0 - (v0 - cy) b) / (dv b - k dd)``, ``k = H - height``.
+       The higher end leaves through ``max_height_m``, the lower one through ``min_height_m``; an
+       end beyond its edge is moved to the crossing (``u, v, d`` and the variances interpolated
+       there), the others stay at ``t = 0`` and ``1``. A row with nothing inside is dropped.
+    3. Floor point and covariance (section 3.2): ``(u, d) -> (X, Z) = ((u - cx) b / d, f b / d)``
+       with ``J = [[b/d, -X/d], [0, -Z/d]]`` and ``S = [[var_u, var_u], [var_u, var_d]]``
+       (``cov(u, d) = var u_left`` since ``d = u_left - u_right``); ``v`` moves only the height.
+       The level head turns ``(X, Z)`` to the world: ``x = x0 + s X + c Z``,
+       ``y = y0 - c X + s Z``, and ``J S J^T`` with it. A row with a degenerate covariance (not a
+       normal distribution) is dropped.
+    4. Grouping: by left segment, then decreasing probability (stable).
+
+    Args:
+        rows: The matches.
+        frame: The band, the rig and the head.
+
+    Returns:
+        The kept rows.
+    """
+    d_all = rows.disparity
+    row_sum = (
+        d_all.sum(axis=1)
+        + rows.ends.sum(axis=(1, 2))
+        + rows.u_var.sum(axis=1)
+        + rows.d_var.sum(axis=1)
+    )
+    idx = np.flatnonzero(
+        (rows.probability >= frame.min_probability) & (d_all.min(axis=1) > 0) & np.isfinite(row_sum)
+    )
+    # 2. the height band: both band edges (columns: max_height_m, min_height_m) at once
+    b, H, cy = frame.baseline_m, frame.height_m, frame.cy_px
+    lo, hi = frame.min_height_m, frame.max_height_m
+    v_e = rows.ends[idx, :, 1]  # (k, 2) rows of the two ends
+    d_e = d_all[idx]
+    v0, d0 = v_e[:, 0], d_e[:, 0]
+    dv = v_e[:, 1] - v0
+    dd = d_e[:, 1] - d0
+    k_band = np.array([H - hi, H - lo])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h = H - (v_e - cy) * b / d_e  # (k, 2) heights of the two ends
+        t_band = (k_band * d0[:, None] - ((v0 - cy) * b)[:, None]) / (
+            (dv * b)[:, None] - k_band * dd[:, None]
+        )
+    h0, h1 = h[:, 0], h[:, 1]
+    falling = h0 >= h1  # the usual case: the height drops as the row increases
+    via_top = falling[:, None] == np.array([True, False])  # (k, 2)
+    outside = np.where(via_top, h > hi, h < lo)
+    T = np.where(outside, np.where(via_top, t_band[:, :1], t_band[:, 1:]), (0.0, 1.0))
+    T = np.minimum(np.maximum(T, 0.0), 1.0)
+    finite = np.isfinite(h) & np.isfinite(T)
+    alive = (
+        finite[:, 0]
+        & finite[:, 1]
+        & (np.maximum(h0, h1) >= lo)
+        & (np.minimum(h0, h1) <= hi)
+        & ((T[:, 1] > T[:, 0]) | (dv <= 0))
+    )
+    sel = np.flatnonzero(alive)
+    idx, T = idx[sel], T[sel]
+    ends = rows.ends[idx]
+    block = np.stack(
+        [ends[:, :, 0], ends[:, :, 1], d_all[idx], rows.u_var[idx], rows.d_var[idx]]
+    )  # (5, k, 2): u, v, d, var u, var d at the two ends, moved to the clipped ends
+    u, v, d, var_u, var_d = block[:, :, :1] + (block[:, :, 1:] - block[:, :, :1]) * T
+    # 3. (u, d) -> camera (X, Z), J S J^T, then the level head's rotation to the world
+    inv_d = 1.0 / d
+    bd = b * inv_d
+    X = (u - frame.cx_px) * bd
+    Z = frame.fb * inv_d
+    xd = X * inv_d
+    zd = Z * inv_d
+    s_xx = bd * bd * var_u - 2.0 * bd * xd * var_u + xd * xd * var_d
+    s_xz = -bd * zd * var_u + xd * zd * var_d
+    s_zz = zd * zd * var_d
+    c, s = frame.cos_heading, frame.sin_heading
+    xy = np.empty((*u.shape, 2))
+    xy[..., 0] = frame.x_m + s * X + c * Z
+    xy[..., 1] = frame.y_m - c * X + s * Z
+    cov = np.empty((*u.shape, 2, 2))
+    cov[..., 0, 0] = s * s * s_xx + 2.0 * s * c * s_xz + c * c * s_zz
+    cov[..., 1, 1] = c * c * s_xx - 2.0 * s * c * s_xz + s * s * s_zz
+    cov[..., 0, 1] = cov[..., 1, 0] = -s * c * s_xx + (s * s - c * c) * s_xz + s * c * s_zz
+    heights = H - (v - cy) * bd
+    det = cov[..., 0, 0] * cov[..., 1, 1] - cov[..., 0, 1] ** 2
+    ok = (cov[..., 0, 0] > 0) & (det > 0)
+    good = np.flatnonzero(ok[:, 0] & ok[:, 1])
+    # 4. grouped by left segment, the most probable candidate first
+    left = rows.left_index[idx[good]]
+    prob = rows.probability[idx[good]]
+    order = np.lexsort((-prob, left))
+    kept = good[order]
+    return FloorRows(xy[kept], cov[kept], heights[kept], left[order], prob[order])
+
+
 def triangulate_to_floor(
     matches: StereoMatches,
     rig: StereoRig,
     head_pose: HeadPose,
-    *,
-    min_height_m: float = 0.05,
-    max_height_m: float = 1.0,
-    min_probability: float = 1e-6,
+    options: TriangulationOptions | None = None,
+    **overrides: Any,
 ) -> FloorObservation:
-    """Floor segments with endpoint covariances from stereo matches.
+    """Floor segments with endpoint covariances from stereo matches (sections 2, 3.2, 3.3).
 
     Args:
-        matches: Kept matches (``match_segments``); rows need not be sorted.
+        matches: Kept matches (``match_segments``); rows need not be sorted. Rows with a
+            non-positive or non-finite disparity, or non-finite endpoints or variances, are
+            ignored (nothing to triangulate).
         rig: The stereo rig that took the pair.
         head_pose: Pose of the left optical centre (level head) in the world.
-        min_height_m: Lowest height above the floor that is kept, m (the floor itself is not an
-            obstacle).
-        max_height_m: Highest height kept, m (the robot's height).
-        min_probability: Candidates below this probability are ignored, in [0, 1). Rows with a
-            non-positive or non-finite disparity, or non-finite endpoints or variances, are
-            ignored too (nothing to triangulate).
+        options: The height band and probability floor (defaults: ``TriangulationOptions()``).
+        **overrides: Fields of :class:`TriangulationOptions` (``min_height_m``,
+            ``max_height_m``, ``min_probability``) replacing those of ``options``.
 
     Returns:
         The observation: unambiguous ``FloorSegment``s (``source`` = left segment index) and
@@ -173,8 +302,8 @@ def triangulate_to_floor(
         world frame (equal to ``triangulate_points`` rotated to the world).
 
     Raises:
-        ValueError: wrong argument types, non-finite heights, ``min_height_m >= max_height_m`` or
-            ``min_probability`` outside [0, 1).
+        ValueError: wrong argument types, an unknown option, or an option out of range (see
+            :class:`TriangulationOptions`).
     """
     if not isinstance(matches, StereoMatches):
         raise ValueError(f"matches must be a StereoMatches, got {type(matches).__name__}")
@@ -182,53 +311,43 @@ def triangulate_to_floor(
         raise ValueError(f"rig must be a StereoRig, got {type(rig).__name__}")
     if not isinstance(head_pose, HeadPose):
         raise ValueError(f"head_pose must be a HeadPose, got {type(head_pose).__name__}")
-    if not (math.isfinite(min_height_m) and math.isfinite(max_height_m)):
-        raise ValueError("min_height_m and max_height_m must be finite")
-    if min_height_m >= max_height_m:
-        raise ValueError(
-            f"min_height_m ({min_height_m}) must be below max_height_m ({max_height_m})"
-        )
-    if not (0.0 <= min_probability < 1.0):
-        raise ValueError(f"min_probability must be in [0, 1), got {min_probability!r}")
-    # usable rows: probable enough, in front of the camera (positive disparity), finite (a NaN or
-    # an infinity anywhere in a row makes the row's sum non-finite).
-    # Clipped to the height band: along the segment (t in [0, 1] from the top end) the row and the
-    # disparity are affine, so the height h(t) = H - (v(t) - cy) b / d(t) is monotonic and crosses a
-    # given height at t = (k d0 - (v0 - cy) b) / (dv b - k dd), k = H - height; the higher end
-    # (the top one of a falling segment) leaves through max_height_m, the lower one through
-    # min_height_m; an end beyond its edge is moved to the crossing, the others stay at t = 0 and 1.
-    # Then (u, d) -> camera (X, Z) = ((u - cx) b / d, f b / d) with J = [[b/d, -X/d], [0, -Z/d]]
-    # on (u, d) and S = [[var_u, var_u], [var_u, var_d]] (cov(u, d) = var u_left since
-    # d = u_left - u_right); v only moves Y, the height, which the floor does not see. Camera
-    # (X, Z) -> world (x, y) of a level head: x = x0 + s X + c Z, y = y0 - c X + s Z. A degenerate
-    # covariance (zero variances) is not a normal distribution: such rows are dropped. All in one
-    # compiled pass (``_tri_kernel.floor_rows``), rows grouped by left segment, the most probable
-    # candidate first.
-    assert rig.cx_px is not None and rig.cy_px is not None
-    xy, cov, heights, left_idx, gp = floor_rows(
-        matches.probability,
-        matches.left_index,
-        matches.left_endpoints,
-        matches.disparity_px,
-        matches.u_left_var,
-        matches.disparity_var,
-        float(min_probability),
-        float(min_height_m),
-        float(max_height_m),
-        (float(rig.baseline_m), float(rig.cx_px), float(rig.cy_px), float(rig.fb)),
-        (
-            float(head_pose.x_m),
-            float(head_pose.y_m),
-            float(head_pose.height_m),
-            math.cos(head_pose.heading_rad),
-            math.sin(head_pose.heading_rad),
-        ),
+    opts = with_overrides(options, TriangulationOptions, overrides)
+    cx, cy = rig.principal_point_px
+    frame = FloorFrame(
+        min_probability=opts.min_probability,
+        min_height_m=opts.min_height_m,
+        max_height_m=opts.max_height_m,
+        baseline_m=float(rig.baseline_m),
+        cx_px=float(cx),
+        cy_px=float(cy),
+        fb=float(rig.fb),
+        x_m=head_pose.x_m,
+        y_m=head_pose.y_m,
+        height_m=head_pose.height_m,
+        cos_heading=math.cos(head_pose.heading_rad),
+        sin_heading=math.sin(head_pose.heading_rad),
     )
-    # the rows in output order, read-only; each segment holds views of one row of these
-    for arr in (xy, cov, heights):
+    rows = MatchRows(
+        probability=matches.probability,
+        left_index=matches.left_index,
+        ends=matches.left_endpoints,
+        disparity=matches.disparity_px,
+        u_var=matches.u_left_var,
+        d_var=matches.disparity_var,
+    )
+    segments, ambiguous = _grouped(floor_rows(rows, frame))
+    return _observation(segments, ambiguous, rig, head_pose)
+
+
+def _grouped(rows: FloorRows) -> tuple[tuple[FloorSegment, ...], tuple[AmbiguousSegment, ...]]:
+    """The kept rows as segments (section 3.3): a left segment with one row gives a
+    ``FloorSegment``, one with several an ``AmbiguousSegment`` whose probabilities are
+    renormalised over them. Each segment holds read-only views of one row."""
+    for arr in (rows.xy, rows.cov, rows.heights):
         arr.setflags(write=False)
-    xy_l, cov_l, h_l = list(xy), list(cov), list(heights)
-    gl_l = left_idx.tolist()
+    xy_l, cov_l, h_l = list(rows.xy), list(rows.cov), list(rows.heights)
+    gl_l = rows.left_index.tolist()
+    gp = rows.probability
     segments: list[FloorSegment] = []
     ambiguous: list[AmbiguousSegment] = []
     n = len(gl_l)
@@ -245,4 +364,4 @@ def triangulate_to_floor(
             cands = tuple(_segment(xy_l[r], cov_l[r], h_l[r], src) for r in range(a, z))
             ambiguous.append(_ambiguous(cands, (p / p.sum()).tolist()))
         a = z
-    return _observation(tuple(segments), tuple(ambiguous), rig, head_pose)
+    return tuple(segments), tuple(ambiguous)

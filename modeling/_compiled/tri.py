@@ -1,18 +1,90 @@
 """Compiled loop of :func:`modeling.triangulation.triangulate_to_floor`: the usable matches
-clipped to the height band and triangulated to the floor with their covariances.
+clipped to the height band and triangulated to the floor with their covariances (sections 2, 3.2).
 
-It computes every value with the same floating-point operations, in the same order, as the NumPy
-expressions it replaced, so the floor segments are identical.
+:func:`floor_rows` computes every value with the same floating-point operations, in the same
+order, as the readable NumPy reference beside the public function
+(:func:`modeling.triangulation.floor_rows_reference`), so the floor segments are identical; a test
+compares the two on seeded random inputs. It stays compiled because it saves about 0.33 ms of CPU
+time per env step against the reference (medians over 300 env steps, each triangulated both ways:
+0.20 vs 0.56 ms).
 
-Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not import
-Numba.
+Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not
+import Numba.
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
+from numpy.typing import NDArray
 
 from modeling._compiled.jit import compiled_helper, compiled_on_first_call
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+class MatchRows(NamedTuple):
+    """The matches to triangulate (the arrays of a ``StereoMatches``).
+
+    Attributes:
+        probability: (m,) each match's probability.
+        left_index: (m,) its left segment, int64.
+        ends: (m, 2, 2) its left-image endpoints ``(u, v)``, top first, px.
+        disparity: (m, 2) the disparity at both ends, px.
+        u_var: (m, 2) the variance of the left column at both ends, px^2.
+        d_var: (m, 2) the variance of the disparity at both ends, px^2.
+    """
+
+    probability: FloatArray
+    left_index: IntArray
+    ends: FloatArray
+    disparity: FloatArray
+    u_var: FloatArray
+    d_var: FloatArray
+
+
+class FloorFrame(NamedTuple):
+    """The height band, the rig and the head of one triangulation (all floats).
+
+    Attributes:
+        min_probability, min_height_m, max_height_m: As ``TriangulationOptions``.
+        baseline_m, cx_px, cy_px, fb: Of the rig (``fb = focal_px * baseline_m``).
+        x_m, y_m, height_m: The head's position, m.
+        cos_heading, sin_heading: Of its heading.
+    """
+
+    min_probability: float
+    min_height_m: float
+    max_height_m: float
+    baseline_m: float
+    cx_px: float
+    cy_px: float
+    fb: float
+    x_m: float
+    y_m: float
+    height_m: float
+    cos_heading: float
+    sin_heading: float
+
+
+class FloorRows(NamedTuple):
+    """The kept rows, sorted by left segment, then decreasing probability (stable).
+
+    Attributes:
+        xy: (n, 2, 2) floor endpoints, world frame, m.
+        cov: (n, 2, 2, 2) their covariances, m^2.
+        heights: (n, 2) their heights above the floor, m.
+        left_index: (n,) the left segment of each row.
+        probability: (n,) its (not renormalised) probability.
+    """
+
+    xy: FloatArray
+    cov: FloatArray
+    heights: FloatArray
+    left_index: IntArray
+    probability: FloatArray
 
 
 @compiled_helper
@@ -24,37 +96,23 @@ def _clamp01(t: float) -> float:
 
 
 @compiled_on_first_call
-def floor_rows(
-    probability: np.ndarray,
-    left_index: np.ndarray,
-    ends: np.ndarray,
-    disparity: np.ndarray,
-    u_var: np.ndarray,
-    d_var: np.ndarray,
-    min_probability: float,
-    min_height_m: float,
-    max_height_m: float,
-    rig: tuple[float, float, float, float],
-    head: tuple[float, float, float, float, float],
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The floor points of the usable matches, grouped by left segment.
+def floor_rows(rows: MatchRows, frame: FloorFrame) -> FloorRows:
+    """The floor points of the usable matches, grouped by left segment (as the reference).
 
     Args:
-        probability, left_index: (m,) each match's probability and left segment.
-        ends: (m, 2, 2) its left-image endpoints ``(u, v)``, top first, px.
-        disparity, u_var, d_var: (m, 2) the disparity, the variance of the left column and of
-            the disparity at both ends.
-        min_probability, min_height_m, max_height_m: As ``triangulate_to_floor``.
-        rig: ``(baseline_m, cx_px, cy_px, fb)`` of the rig.
-        head: ``(x_m, y_m, height_m, cos heading, sin heading)`` of the head.
+        rows: The matches.
+        frame: The band, rig and head.
 
     Returns:
-        ``(xy, cov, heights, left, prob)``: (n, 2, 2) floor endpoints, (n, 2, 2, 2) their
-        covariances, (n, 2) their heights, (n,) the left segment and probability of each row,
-        sorted by left segment, then decreasing probability (stable).
+        The kept rows.
     """
-    b, cx, cy, fb = rig
-    x0, y0, H, c, s = head
+    probability, left_index, ends = rows.probability, rows.left_index, rows.ends
+    disparity, u_var, d_var = rows.disparity, rows.u_var, rows.d_var
+    min_probability = frame.min_probability
+    min_height_m, max_height_m = frame.min_height_m, frame.max_height_m
+    b, cx, cy, fb = frame.baseline_m, frame.cx_px, frame.cy_px, frame.fb
+    x0, y0, H = frame.x_m, frame.y_m, frame.height_m
+    c, s = frame.cos_heading, frame.sin_heading
     m = probability.shape[0]
     k_top = H - max_height_m
     k_bottom = H - min_height_m
@@ -78,7 +136,7 @@ def floor_rows(
             and np.isfinite(row_sum)
         ):
             continue
-        # clip to the height band (see triangulate_to_floor)
+        # clip to the height band (see floor_rows_reference)
         v0, v1 = ends[r, 0, 1], ends[r, 1, 1]
         d0, d1 = disparity[r, 0], disparity[r, 1]
         dv = v1 - v0
@@ -145,4 +203,4 @@ def floor_rows(
     # by left segment, then decreasing probability (two stable sorts, minor key first)
     order = np.argsort(-prob, kind="mergesort")
     order = order[np.argsort(left[order], kind="mergesort")]
-    return xy[:n][order], cov[:n][order], heights[:n][order], left[order], prob[order]
+    return FloorRows(xy[:n][order], cov[:n][order], heights[:n][order], left[order], prob[order])

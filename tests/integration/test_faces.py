@@ -4,6 +4,7 @@ a real gap between two obstacles is not. Ground truth: the obstacles' footprints
 from __future__ import annotations
 
 import os
+from typing import Any
 
 import numpy as np
 import pytest
@@ -11,30 +12,31 @@ import shapely
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
-from modeling.faces import FACE_SOURCE, close_faces, face_pairs
+from modeling.faces import FACE_SOURCE, FaceOptions, close_faces, face_pairs
 from modeling.matching import match_segments
 from modeling.model import build_model
-from modeling.observation import FloorObservation
+from modeling.observation import FloorObservation, FloorSegment
 from modeling.pipeline import to_gray
 from modeling.rig import HeadPose, StereoRig
 from modeling.segments import ImageSegments, extract_segment_pair
 from modeling.triangulation import triangulate_to_floor
-
-render = pytest.importorskip("stereo_nav_env.render")
-scenes = pytest.importorskip("stereo_nav_env.scenes")
+from stereo_nav_env.render import StereoRenderer
+from stereo_nav_env.scenes import Scene, make_obstacle, oriented_rect
 
 RIG = StereoRig()
 HEAD = HeadPose(x_m=0.0, y_m=0.0, heading_rad=0.0, height_m=0.8)
 ROBOT_WIDTH_M = 0.5
 
 
-def _observe(obstacles: tuple) -> tuple[ImageSegments, FloorObservation, shapely.Geometry]:
+def _observe(
+    obstacles: tuple[Any, ...],
+) -> tuple[ImageSegments, FloorObservation, shapely.Geometry]:
     """Render the scene from ``HEAD`` with seeded pixel noise; the left segments, the floor
     observation and the union of the true footprints."""
-    scene = scenes.Scene(
+    scene = Scene(
         name="t", bounds=(-1, -5, 12, 5), obstacles=obstacles, start=(0, 0, 0), goal=(11, 0)
     )
-    renderer = render.StereoRenderer(RIG, scene)
+    renderer = StereoRenderer(RIG, scene)
     try:
         left, right = renderer.render_stereo(HEAD)
     except RuntimeError as exc:  # pragma: no cover - no OpenGL on this machine
@@ -56,16 +58,16 @@ def _box(
     y0: float,
     y1: float,
     x_front: float = 3.0,
-    color: tuple = (0.55, 0.35, 0.2),
+    color: tuple[float, float, float] = (0.55, 0.35, 0.2),
     height_m: float = 1.5,
 ) -> object:
     """A plain box (by default 1.5 m tall: above the robot, only its bottom edge can close it)
     whose front face, at ``x_front``, spans ``y0 .. y1``."""
     fp = [[x_front, y0], [x_front + 0.6, y0], [x_front + 0.6, y1], [x_front, y1]]
-    return scenes.make_obstacle("box", fp, height_m=height_m, color=color)
+    return make_obstacle("box", fp, height_m=height_m, color=color)
 
 
-def _added(before: FloorObservation, after: FloorObservation) -> list:
+def _added(before: FloorObservation, after: FloorObservation) -> list[FloorSegment]:
     return list(after.segments[len(before.segments) :])
 
 
@@ -88,8 +90,8 @@ def test_a_face_wider_than_the_robot_is_closed_along_its_true_outline() -> None:
 
 
 def test_a_real_gap_between_two_boxes_is_not_closed() -> None:
-    far_wall = scenes.make_obstacle(
-        "wall", scenes.oriented_rect([7.0, 0.0], 0.1, 8.0, 0.0), color=(0.8, 0.8, 0.75)
+    far_wall = make_obstacle(
+        "wall", oriented_rect([7.0, 0.0], 0.1, 8.0, 0.0), color=(0.8, 0.8, 0.75)
     )
     boxes = (_box(-1.3, -0.5, color=(0.2, 0.3, 0.6)), _box(0.5, 1.3))
     segs_l, floor, truth = _observe((*boxes, far_wall))
@@ -119,6 +121,9 @@ def test_the_top_edge_of_a_low_box_joins_its_tops_when_asked() -> None:
     assert abs(seg_a.height_m.max() - 0.7) <= 0.05 and abs(seg_b.height_m.max() - 0.7) <= 0.05
     # joined once even when both ends are found
     assert len(close_faces(segs_l, floor, tops=True).segments) == len(floor.segments) + 1
+    # the options as a FaceOptions, the keywords overriding its fields
+    assert face_pairs(segs_l, floor, FaceOptions(tops=True)) == both
+    assert face_pairs(segs_l, floor, FaceOptions(tops=True), tops=False) == bottoms
 
 
 def test_nothing_to_close_returns_the_observation_itself() -> None:
@@ -133,9 +138,11 @@ def test_nothing_to_close_returns_the_observation_itself() -> None:
         ({"tol_px": -1.0}, "tol_px"),
         ({"min_cover": 0.0}, "min_cover"),
         ({"max_length_m": float("nan")}, "max_length_m"),
+        ({"tops": 1}, "tops"),
+        ({"bogus": 1.0}, "bogus"),
     ],
 )
-def test_bad_options_name_themselves(kwargs: dict, name: str) -> None:
+def test_bad_options_name_themselves(kwargs: dict[str, Any], name: str) -> None:
     with pytest.raises(ValueError, match=name):
         face_pairs(ImageSegments.empty((240, 320)), FloorObservation(), **kwargs)
 

@@ -7,20 +7,27 @@ import math
 
 import numpy as np
 import pytest
-from tests.modeling.synth import render_pair
 
 from modeling.faces import FACE_SOURCE
 from modeling.matching import StereoMatches
 from modeling.observation import FloorObservation
 from modeling.pipeline import stereo_to_floor
 from modeling.rig import HeadPose, StereoRig
-from modeling.triangulation import triangulate_points, triangulate_to_floor
+from modeling.triangulation import (
+    TriangulationOptions,
+    triangulate_points,
+    triangulate_to_floor,
+)
+from tests.modeling.synth import render_pair
 
 RIG = StereoRig()
+CX, CY = RIG.principal_point_px
 POSE = HeadPose(x_m=1.0, y_m=2.0, heading_rad=math.pi / 2, height_m=0.8)
 
 
-def _matches(rows: list[tuple[int, float, float, float, float, float]], var=0.1) -> StereoMatches:
+def _matches(
+    rows: list[tuple[int, float, float, float, float, float]], var: float = 0.1
+) -> StereoMatches:
     """rows: (left_index, probability, u, v_top, v_bottom, disparity) of vertical edges."""
     m = len(rows)
     li = np.array([r[0] for r in rows])
@@ -46,9 +53,9 @@ def test_vertical_edge_lands_at_the_true_floor_point_with_clipped_heights() -> N
     # a vertical edge at X = 0.3 m, Z = 2 m in the left camera frame, from 1.3 m down to the floor
     Z, X = 2.0, 0.3
     d = RIG.fb / Z
-    u = RIG.focal_px * X / Z + RIG.cx_px
-    v_top = RIG.focal_px * (0.8 - 1.3) / Z + RIG.cy_px  # height 1.3 m
-    v_bot = RIG.focal_px * (0.8 - 0.0) / Z + RIG.cy_px  # the floor
+    u = RIG.focal_px * X / Z + CX
+    v_top = RIG.focal_px * (0.8 - 1.3) / Z + CY  # height 1.3 m
+    v_bot = RIG.focal_px * (0.8 - 0.0) / Z + CY  # the floor
     obs = triangulate_to_floor(_matches([(7, 1.0, u, v_top, v_bot, d)]), RIG, POSE)
     assert len(obs.segments) == 1 and obs.ambiguous == ()
     seg = obs.segments[0]
@@ -92,7 +99,10 @@ def test_height_band_drops_and_clips() -> None:
     Z = 3.0
     d = RIG.fb / Z
     u = 200.0
-    v_of = lambda h: RIG.focal_px * (0.8 - h) / Z + RIG.cy_px  # noqa: E731
+
+    def v_of(h: float) -> float:
+        return RIG.focal_px * (0.8 - h) / Z + CY
+
     rows = [
         (0, 1.0, u, v_of(2.0), v_of(1.5), d),  # entirely above the robot: dropped
         (1, 1.0, u, v_of(0.04), v_of(0.0), d),  # on the floor: dropped
@@ -111,7 +121,10 @@ def test_a_point_match_crosses_no_band_edge_and_nothing_raises() -> None:
     # as a point at its height
     Z = 3.0
     d = RIG.fb / Z
-    v_of = lambda h: RIG.focal_px * (0.8 - h) / Z + RIG.cy_px  # noqa: E731
+
+    def v_of(h: float) -> float:
+        return RIG.focal_px * (0.8 - h) / Z + CY
+
     rows = [(0, 1.0, 200.0, v_of(1.5), v_of(1.5), d), (1, 1.0, 200.0, v_of(0.4), v_of(0.4), d)]
     obs = triangulate_to_floor(_matches(rows), RIG, POSE)
     assert [s.source for s in obs.segments] == [1]
@@ -121,8 +134,8 @@ def test_a_point_match_crosses_no_band_edge_and_nothing_raises() -> None:
 
 def test_ambiguous_candidates_and_renormalisation() -> None:
     u = 200.0
-    v0 = RIG.focal_px * (0.8 - 0.9) / 2.0 + RIG.cy_px
-    v1 = RIG.focal_px * (0.8 - 0.1) / 2.0 + RIG.cy_px
+    v0 = RIG.focal_px * (0.8 - 0.9) / 2.0 + CY
+    v1 = RIG.focal_px * (0.8 - 0.1) / 2.0 + CY
     rows = [(3, 0.5, u, v0, v1, 15.6), (3, 0.3, u, v0, v1, 30.0), (3, 0.2, u, v0, v1, 45.0)]
     obs = triangulate_to_floor(_matches(rows), RIG, POSE)
     assert obs.segments == () and len(obs.ambiguous) == 1
@@ -159,6 +172,29 @@ def test_wrong_arguments_raise_naming_them() -> None:
         triangulate_to_floor(m, RIG, POSE, min_height_m=1.0, max_height_m=0.5)
     with pytest.raises(ValueError, match="min_probability"):
         triangulate_to_floor(m, RIG, POSE, min_probability=1.0)
+    with pytest.raises(ValueError, match="max_height_m"):
+        triangulate_to_floor(m, RIG, POSE, max_height_m=float("inf"))
+    with pytest.raises(ValueError, match="bogus"):
+        triangulate_to_floor(m, RIG, POSE, bogus=1.0)
+    with pytest.raises(ValueError, match="TriangulationOptions"):
+        triangulate_to_floor(m, RIG, POSE, {"min_height_m": 0.1})  # type: ignore[arg-type]
+
+
+def test_options_object_and_keywords_agree() -> None:
+    u = 200.0
+    v0 = RIG.focal_px * (0.8 - 0.9) / 2.0 + CY
+    v1 = RIG.focal_px * (0.8 - 0.1) / 2.0 + CY
+    m = _matches([(1, 1.0, u, v0, v1, 15.6)])
+    band = TriangulationOptions(min_height_m=0.3, max_height_m=0.5)
+    by_object = triangulate_to_floor(m, RIG, POSE, band)
+    by_keywords = triangulate_to_floor(m, RIG, POSE, min_height_m=0.3, max_height_m=0.5)
+    np.testing.assert_allclose(by_object.segments[0].height_m, [0.5, 0.3], atol=1e-9)
+    np.testing.assert_array_equal(
+        by_object.segments[0].endpoints, by_keywords.segments[0].endpoints
+    )
+    # a keyword overrides the object's field
+    wide = triangulate_to_floor(m, RIG, POSE, band, max_height_m=1.0)
+    np.testing.assert_allclose(wide.segments[0].height_m, [0.9, 0.3], atol=1e-9)
 
 
 def test_floor_covariance_is_the_world_xy_block_of_the_3d_one() -> None:
@@ -209,8 +245,8 @@ def test_floor_covariance_is_the_world_xy_block_of_the_3d_one() -> None:
 
 def test_row_order_and_invalid_rows() -> None:
     u = 200.0
-    v0 = RIG.focal_px * (0.8 - 0.9) / 2.0 + RIG.cy_px
-    v1 = RIG.focal_px * (0.8 - 0.1) / 2.0 + RIG.cy_px
+    v0 = RIG.focal_px * (0.8 - 0.9) / 2.0 + CY
+    v1 = RIG.focal_px * (0.8 - 0.1) / 2.0 + CY
     rows = [(3, 0.3, u, v0, v1, 30.0), (1, 1.0, u, v0, v1, 15.6), (3, 0.7, u, v0, v1, 15.6)]
     obs = triangulate_to_floor(_matches(rows), RIG, POSE)  # rows not grouped by left segment
     assert [s.source for s in obs.segments] == [1]
@@ -240,7 +276,7 @@ def test_stereo_to_floor_end_to_end_grey_and_rgb() -> None:
     rgb = stereo_to_floor(np.dstack([left] * 3), np.dstack([right] * 3), RIG, pose)
     assert len(rgb.segments) == 3
     with pytest.raises(ValueError, match="close_faces"):
-        stereo_to_floor(left, right, RIG, pose, close_faces="yes")
+        stereo_to_floor(left, right, RIG, pose, close_faces="yes")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="left"):
         stereo_to_floor(left.astype(np.float32), right, RIG, pose)
     with pytest.raises(ValueError, match="right"):
