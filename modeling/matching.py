@@ -54,16 +54,37 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._compiled.match import candidate_grid, decide, histogram_inputs, histograms, match_rows
-from modeling.validation import FloatArray, positive
+from modeling._compiled.match import (
+    Candidates,
+    Constraints,
+    Decision,
+    HistogramInputs,
+    LineFits,
+    MatchRows,
+    PeakRule,
+    SegmentColumns,
+    Splat,
+    candidate_grid,
+    decide,
+    histogram_inputs,
+    histograms,
+    match_rows,
+)
 from modeling.rig import StereoRig
-from modeling.segments import ImageSegments
+from modeling.segments import ImageSegments, _options_signature
+from modeling.validation import FloatArray, boolean, positive, with_overrides
 
-__all__ = ["MatchCandidates", "StereoMatches", "match_candidates", "match_segments"]
+__all__ = [
+    "MatchCandidates",
+    "MatchOptions",
+    "StereoMatches",
+    "match_candidates",
+    "match_segments",
+]
 
 IntArray = NDArray[np.int64]
 
-_BIN_PX = 1.0  # disparity histogram bin, px (peaks are refined to sub-bin by a parabola)
+BIN_PX = 1.0  # disparity histogram bin, px (peaks are refined to sub-bin by a parabola)
 
 
 def _readonly(arr: np.ndarray) -> np.ndarray:
@@ -218,210 +239,13 @@ class MatchCandidates:
         return int(self.left_index.shape[0])
 
 
-def _check_segments(value: object, name: str) -> ImageSegments:
-    if not isinstance(value, ImageSegments):
-        raise ValueError(f"{name} must be an ImageSegments, got {type(value).__name__}")
-    return value
+@dataclass(frozen=True, slots=True, kw_only=True)
+class MatchOptions:
+    """The options of :func:`match_segments` and :func:`match_candidates` (section 3.1, Eq. 1).
 
-
-def _check_rig(rig: object) -> StereoRig:
-    if not isinstance(rig, StereoRig):
-        raise ValueError(f"rig must be a StereoRig, got {type(rig).__name__}")
-    return rig
-
-
-def _check_inputs(
-    left: object,
-    right: object,
-    rig: object,
-    min_overlap_frac: float,
-    min_overlap_px: float,
-    max_angle_diff_deg: float,
-    max_grey_diff: float,
-    max_near_grey_diff: float,
-    agree_px: float,
-) -> tuple[ImageSegments, ImageSegments, StereoRig]:
-    """The checks both public functions make: the segments, the rig and the constraint options."""
-    checked = (_check_segments(left, "left"), _check_segments(right, "right"), _check_rig(rig))
-    if not (0.0 <= min_overlap_frac <= 1.0):
-        raise ValueError(f"min_overlap_frac must be in [0, 1], got {min_overlap_frac!r}")
-    positive(min_overlap_px, "min_overlap_px", allow_zero=True)
-    positive(max_angle_diff_deg, "max_angle_diff_deg")
-    positive(agree_px, "agree_px")
-    for name, value in (
-        ("max_grey_diff", max_grey_diff),
-        ("max_near_grey_diff", max_near_grey_diff),
-    ):
-        if not (value >= 0):  # inf allowed: disables the check
-            raise ValueError(f"{name} must be non-negative, got {value!r}")
-    return checked
-
-
-@dataclass(frozen=True, slots=True)
-class _Candidates:
-    """Candidate pairs as parallel arrays (``k >= 1`` rows), sorted by left then right index."""
-
-    li: IntArray
-    rj: IntArray
-    rows: FloatArray  # (k, 2) first and last row of the overlap, px
-    ov: FloatArray  # overlap, rows
-    disp: FloatArray  # (k, 2) disparity at those rows, px
-    opposite: NDArray[np.bool_]
-
-
-def _candidates(
-    left: ImageSegments,
-    right: ImageSegments,
-    rig: StereoRig,
-    *,
-    min_overlap_frac: float,
-    min_overlap_px: float,
-    max_angle_diff_deg: float,
-    allow_opposite: bool,
-    max_grey_diff: float,
-    max_near_grey_diff: float,
-    margin_px: float,
-) -> _Candidates | None:
-    """Pairs passing the epipolar, direction, photometric and disparity-range constraints, or
-    ``None`` when none does (see the module docstring): one compiled pass over the (nL, nR) grid
-    (``_match_kernel.candidate_grid``)."""
-    if len(left) == 0 or len(right) == 0:
-        return None
-    li, rj, rows, ov, disp, opposite = candidate_grid(
-        *_columns(left),
-        *_columns(right),
-        float(min_overlap_px),
-        float(min_overlap_frac),
-        math.radians(max_angle_diff_deg),
-        bool(allow_opposite),
-        float(max_grey_diff),
-        float(max_near_grey_diff),
-        max(rig.min_disparity_px - margin_px, 1e-3),
-        rig.max_disparity_px + margin_px,
-    )
-    if li.size == 0:
-        return None
-    return _Candidates(li=li, rj=rj, rows=rows, ov=ov, disp=disp, opposite=opposite)
-
-
-def _columns(segments: ImageSegments) -> tuple[Any, ...]:
-    """The arrays of ``segments`` that ``candidate_grid`` reads, in its argument order."""
-    s = segments
-    return (
-        s.endpoints,
-        s.angle_rad,
-        s.polarity,
-        (s.grey_left, s.grey_right, s.grey_left_near, s.grey_right_near),
-        (s.u_center, s.slope, s.v_center),
-    )
-
-
-def match_candidates(
-    left: ImageSegments,
-    right: ImageSegments,
-    rig: StereoRig,
-    *,
-    min_overlap_frac: float = 0.5,
-    min_overlap_px: float = 8.0,
-    max_angle_diff_deg: float = 8.0,
-    allow_opposite: bool = True,
-    max_grey_diff: float = 15.0,
-    max_near_grey_diff: float = 10.0,
-    agree_px: float = 2.5,
-) -> MatchCandidates:
-    """The candidate pairs ``match_segments`` decides among (constraints only, no histogram).
-
-    Args:
-        left: Segments of the left (reference) image.
-        right: Segments of the right image.
-        rig: The stereo rig (disparity range).
-        min_overlap_frac: As in ``match_segments``.
-        min_overlap_px: As in ``match_segments``.
-        max_angle_diff_deg: As in ``match_segments``.
-        allow_opposite: As in ``match_segments``.
-        max_grey_diff: As in ``match_segments``.
-        max_near_grey_diff: As in ``match_segments``.
-        agree_px: As in ``match_segments`` (it widens the disparity range).
-
-    Returns:
-        Every pair passing the epipolar, direction, photometric and disparity-range constraints,
-        with the same defaults as ``match_segments``.
-
-    Raises:
-        ValueError: ``left``/``right`` are not ``ImageSegments``, ``rig`` is not a ``StereoRig``,
-            or an option is out of range.
-    """
-    left, right, rig = _check_inputs(
-        left,
-        right,
-        rig,
-        min_overlap_frac,
-        min_overlap_px,
-        max_angle_diff_deg,
-        max_grey_diff,
-        max_near_grey_diff,
-        agree_px,
-    )
-    cand = _candidates(
-        left,
-        right,
-        rig,
-        min_overlap_frac=min_overlap_frac,
-        min_overlap_px=min_overlap_px,
-        max_angle_diff_deg=max_angle_diff_deg,
-        allow_opposite=allow_opposite,
-        max_grey_diff=max_grey_diff,
-        max_near_grey_diff=max_near_grey_diff,
-        margin_px=agree_px,
-    )
-    if cand is None:
-        return MatchCandidates(
-            left_index=np.zeros(0, dtype=np.int64),
-            right_index=np.zeros(0, dtype=np.int64),
-            rows_px=np.zeros((0, 2)),
-            disparity_px=np.zeros((0, 2)),
-            opposite_polarity=np.zeros(0, dtype=bool),
-            overlap_px=np.zeros(0),
-        )
-    return MatchCandidates(
-        left_index=cand.li,
-        right_index=cand.rj,
-        rows_px=cand.rows,
-        disparity_px=cand.disp,
-        opposite_polarity=cand.opposite,
-        overlap_px=cand.ov,
-    )
-
-
-def match_segments(
-    left: ImageSegments,
-    right: ImageSegments,
-    rig: StereoRig,
-    *,
-    min_overlap_frac: float = 0.5,
-    min_overlap_px: float = 8.0,
-    max_angle_diff_deg: float = 8.0,
-    allow_opposite: bool = True,
-    opposite_weight: float = 0.5,
-    region_sigma_px: tuple[float, float] = (16.0, 32.0),
-    smooth_px: float = 2.5,
-    rel_peak: float = 0.5,
-    min_peak_sep_px: float = 2.5,
-    agree_px: float = 2.5,
-    sigma_v_px: float = 1.0,
-    max_grey_diff: float = 15.0,
-    max_near_grey_diff: float = 10.0,
-    self_weight: float = 1.0,
-    unique_right: bool = True,
-) -> StereoMatches:
-    """Match left and right segments of a rectified pair (section 3.1, Eq. 1 of section 3.3).
-
-    Args:
-        left: Segments of the left (reference) image.
-        right: Segments of the right image.
-        rig: The stereo rig (disparity range).
+    Attributes:
         min_overlap_frac: Smallest vertical overlap of a pair, as a fraction of the shorter row
-            range of the two.
+            range of the two, in [0, 1].
         min_overlap_px: Smallest vertical overlap, rows.
         max_angle_diff_deg: Largest difference of the two segments' angles, degrees.
         allow_opposite: Accept pairs of opposite contrast polarity (occluding edges).
@@ -430,9 +254,11 @@ def match_segments(
         region_sigma_px: ``(sigma_u, sigma_v)`` of the Gaussian that weights neighbouring left
             segments into a segment's local histogram, px.
         smooth_px: Standard deviation of the histogram smoothing along disparity, px.
-        rel_peak: A peak is prominent if at least this fraction of the region's highest peak.
+        rel_peak: A peak is prominent if at least this fraction of the region's highest peak,
+            in (0, 1].
         min_peak_sep_px: Smallest distance between two prominent peaks, px.
-        agree_px: A candidate agrees with a peak within this disparity difference, px.
+        agree_px: A candidate agrees with a peak within this disparity difference, px (it also
+            widens the rig's disparity range for the candidates).
         sigma_v_px: Standard deviation of where an overlapping part ends along the edge, px.
         max_grey_diff: Largest difference of the "far" grey level (3 px from the edge) of a side
             of the two segments for that side to agree, grey levels (``inf``: no check).
@@ -443,134 +269,254 @@ def match_segments(
         unique_right: Drop certain claims on a right segment that another left segment keeps at
             another disparity with a higher peak (see the module docstring).
 
+    Raises:
+        ValueError: naming the option that is out of range.
+    """
+
+    min_overlap_frac: float = 0.5
+    min_overlap_px: float = 8.0
+    max_angle_diff_deg: float = 8.0
+    allow_opposite: bool = True
+    opposite_weight: float = 0.5
+    region_sigma_px: tuple[float, float] = (16.0, 32.0)
+    smooth_px: float = 2.5
+    rel_peak: float = 0.5
+    min_peak_sep_px: float = 2.5
+    agree_px: float = 2.5
+    sigma_v_px: float = 1.0
+    max_grey_diff: float = 15.0
+    max_near_grey_diff: float = 10.0
+    self_weight: float = 1.0
+    unique_right: bool = True
+
+    def __post_init__(self) -> None:
+        if not (0.0 <= self.min_overlap_frac <= 1.0):
+            raise ValueError(f"min_overlap_frac must be in [0, 1], got {self.min_overlap_frac!r}")
+        positive(self.min_overlap_px, "min_overlap_px", allow_zero=True)
+        positive(self.max_angle_diff_deg, "max_angle_diff_deg")
+        positive(self.agree_px, "agree_px")
+        for name in ("max_grey_diff", "max_near_grey_diff"):
+            value = getattr(self, name)
+            if not (value >= 0):  # inf allowed: disables the check
+                raise ValueError(f"{name} must be non-negative, got {value!r}")
+        if not (0.0 <= self.opposite_weight <= 1.0):
+            raise ValueError(f"opposite_weight must be in [0, 1], got {self.opposite_weight!r}")
+        if not (0.0 < self.rel_peak <= 1.0):
+            raise ValueError(f"rel_peak must be in (0, 1], got {self.rel_peak!r}")
+        positive(self.self_weight, "self_weight", allow_zero=True)
+        positive(self.smooth_px, "smooth_px")
+        positive(self.min_peak_sep_px, "min_peak_sep_px")
+        positive(self.sigma_v_px, "sigma_v_px")
+        su, sv = (float(x) for x in self.region_sigma_px)
+        if not (math.isfinite(su) and math.isfinite(sv) and su > 0 and sv > 0):
+            raise ValueError(
+                f"region_sigma_px must be two positive numbers, got {self.region_sigma_px!r}"
+            )
+        object.__setattr__(self, "region_sigma_px", (su, sv))
+        boolean(bool(self.allow_opposite), "allow_opposite")
+        boolean(bool(self.unique_right), "unique_right")
+
+    def constraints(self, rig: StereoRig) -> Constraints:
+        """The candidate constraints for ``rig``'s disparity range (widened by ``agree_px``)."""
+        return Constraints(
+            min_overlap_px=float(self.min_overlap_px),
+            min_overlap_frac=float(self.min_overlap_frac),
+            max_angle_rad=math.radians(self.max_angle_diff_deg),
+            allow_opposite=bool(self.allow_opposite),
+            max_grey_diff=float(self.max_grey_diff),
+            max_near_grey_diff=float(self.max_near_grey_diff),
+            min_disparity_px=max(rig.min_disparity_px - self.agree_px, 1e-3),
+            max_disparity_px=rig.max_disparity_px + self.agree_px,
+        )
+
+    def splat(self) -> Splat:
+        """How a candidate is spread into its segment's histogram (1 px bins)."""
+        sig_bins = self.smooth_px / BIN_PX
+        return Splat(
+            opposite_weight=float(self.opposite_weight),
+            sigma_bins=float(sig_bins),
+            radius=max(1, math.ceil(3.0 * sig_bins)),
+            bin_px=BIN_PX,
+            norm=math.sqrt(2.0 * math.pi) * sig_bins,
+        )
+
+    def peak_rule(self, n_bins: int, n_left: int) -> PeakRule:
+        """The decision's parameters for histograms of ``n_bins`` bins and ``n_left`` segments."""
+        return PeakRule(
+            bin_px=BIN_PX,
+            half=math.ceil(self.min_peak_sep_px / BIN_PX),
+            rel_peak=float(self.rel_peak),
+            span=n_bins * BIN_PX + 4.0 * self.agree_px,
+            agree_px=float(self.agree_px),
+            unique_right=bool(self.unique_right),
+            n_left=n_left,
+        )
+
+
+def _check_inputs(
+    left: object, right: object, rig: object
+) -> tuple[ImageSegments, ImageSegments, StereoRig]:
+    """``(left, right, rig)`` checked to be two ``ImageSegments`` and a ``StereoRig``.
+
+    Raises:
+        ValueError: naming ``left``, ``right`` or ``rig``.
+    """
+    for value, name in ((left, "left"), (right, "right")):
+        if not isinstance(value, ImageSegments):
+            raise ValueError(f"{name} must be an ImageSegments, got {type(value).__name__}")
+    if not isinstance(rig, StereoRig):
+        raise ValueError(f"rig must be a StereoRig, got {type(rig).__name__}")
+    return left, right, rig  # type: ignore[return-value]
+
+
+def _columns(segments: ImageSegments) -> SegmentColumns:
+    """The arrays of ``segments`` that the candidate grid reads."""
+    s = segments
+    return SegmentColumns(
+        endpoints=s.endpoints,
+        angle=s.angle_rad,
+        polarity=s.polarity,
+        grey_far_left=s.grey_left,
+        grey_far_right=s.grey_right,
+        grey_near_left=s.grey_left_near,
+        grey_near_right=s.grey_right_near,
+        u_center=s.u_center,
+        slope=s.slope,
+        v_center=s.v_center,
+    )
+
+
+def _line_fits(segments: ImageSegments) -> LineFits:
+    """The fitted lines of ``segments`` (what the output rows read)."""
+    s = segments
+    return LineFits(
+        u_center=s.u_center,
+        slope=s.slope,
+        v_center=s.v_center,
+        point_var=s.point_var,
+        n_points=s.n_points,
+        s_vv=s.s_vv,
+        bias_var=s.bias_var,
+    )
+
+
+def _region_histograms(
+    inputs: HistogramInputs, mid: FloatArray, options: MatchOptions
+) -> FloatArray:
+    """(n_rows, n_bins) the local disparity histogram of the region around each left segment
+    with candidates: its own histogram and its neighbours', weighted by a Gaussian of the
+    distance between segment midpoints ``mid`` (n_rows, 2) px (``self_weight`` for itself)."""
+    su, sv = options.region_sigma_px
+    terms = histograms(inputs, np.exp(inputs.exponent), mid, su, sv)
+    w_region = np.exp(terms.region_exponent)
+    w_region.flat[:: inputs.rows.size + 1] = options.self_weight
+    hist: FloatArray = w_region @ terms.own
+    return hist
+
+
+def match_candidates(
+    left: ImageSegments,
+    right: ImageSegments,
+    rig: StereoRig,
+    options: MatchOptions | None = None,
+    **overrides: Any,
+) -> MatchCandidates:
+    """The candidate pairs ``match_segments`` decides among (constraints only, no histogram).
+
+    Args:
+        left: Segments of the left (reference) image.
+        right: Segments of the right image.
+        rig: The stereo rig (disparity range).
+        options: The options (defaults: ``MatchOptions()``); only the constraints and
+            ``agree_px`` (it widens the disparity range) matter here.
+        **overrides: Fields of ``MatchOptions`` to replace.
+
+    Returns:
+        Every pair passing the epipolar, direction, photometric and disparity-range constraints.
+
+    Raises:
+        ValueError: ``left``/``right`` are not ``ImageSegments``, ``rig`` is not a ``StereoRig``,
+            or an option is unknown or out of range.
+    """
+    left, right, rig = _check_inputs(left, right, rig)
+    opts = with_overrides(options, MatchOptions, overrides)
+    cand = candidate_grid(_columns(left), _columns(right), opts.constraints(rig))
+    return MatchCandidates(
+        left_index=cand.li,
+        right_index=cand.rj,
+        rows_px=cand.rows,
+        disparity_px=cand.disparity,
+        opposite_polarity=cand.opposite,
+        overlap_px=cand.overlap,
+    )
+
+
+def match_segments(
+    left: ImageSegments,
+    right: ImageSegments,
+    rig: StereoRig,
+    options: MatchOptions | None = None,
+    **overrides: Any,
+) -> StereoMatches:
+    """Match left and right segments of a rectified pair (section 3.1, Eq. 1 of section 3.3).
+
+    The paper's steps, each a compiled loop whose readable NumPy reference (the same operations,
+    equal results) is in :mod:`modeling.matching_reference`: the candidates
+    (``candidates_reference``), the local disparity histograms of the regions
+    (``histogram_inputs_reference``, ``region_histograms_reference``), the decision by their
+    prominent peaks with Eq. 1 (``decide_matches_reference``) and the output rows.
+
+    Args:
+        left: Segments of the left (reference) image.
+        right: Segments of the right image.
+        rig: The stereo rig (disparity range).
+        options: The options (defaults: ``MatchOptions()``).
+        **overrides: Fields of ``MatchOptions`` to replace, e.g. ``rel_peak=0.6``.
+
     Returns:
         The kept pairs with their probabilities; empty if nothing matches.
 
     Raises:
         ValueError: ``left``/``right`` are not ``ImageSegments``, ``rig`` is not a ``StereoRig``,
-            or an option is out of range.
+            or an option is unknown or out of range.
     """
-    left, right, rig = _check_inputs(
-        left,
-        right,
-        rig,
-        min_overlap_frac,
-        min_overlap_px,
-        max_angle_diff_deg,
-        max_grey_diff,
-        max_near_grey_diff,
-        agree_px,
-    )
-    if not (0.0 <= opposite_weight <= 1.0):
-        raise ValueError(f"opposite_weight must be in [0, 1], got {opposite_weight!r}")
-    if not (0.0 < rel_peak <= 1.0):
-        raise ValueError(f"rel_peak must be in (0, 1], got {rel_peak!r}")
-    positive(self_weight, "self_weight", allow_zero=True)
-    positive(smooth_px, "smooth_px")
-    positive(min_peak_sep_px, "min_peak_sep_px")
-    positive(sigma_v_px, "sigma_v_px")
-    su, sv = (float(x) for x in region_sigma_px)
-    if not (math.isfinite(su) and math.isfinite(sv) and su > 0 and sv > 0):
-        raise ValueError(f"region_sigma_px must be two positive numbers, got {region_sigma_px!r}")
-    nL = len(left)
-
-    # ---------------------------------------------------------------- candidates
-    cand = _candidates(
-        left,
-        right,
-        rig,
-        min_overlap_frac=min_overlap_frac,
-        min_overlap_px=min_overlap_px,
-        max_angle_diff_deg=max_angle_diff_deg,
-        allow_opposite=allow_opposite,
-        max_grey_diff=max_grey_diff,
-        max_near_grey_diff=max_near_grey_diff,
-        margin_px=agree_px,
-    )
-    if cand is None:
+    left, right, rig = _check_inputs(left, right, rig)
+    opts = with_overrides(options, MatchOptions, overrides)
+    cand = candidate_grid(_columns(left), _columns(right), opts.constraints(rig))
+    n_cand = int(cand.li.size)
+    if n_cand == 0:
         return StereoMatches.empty()
-    li = cand.li
-    n_cand = int(li.size)
-
-    # ---------------------------------------------------------------- local histograms
-    # each candidate is splatted into its left segment's histogram as a Gaussian of standard
-    # deviation smooth_px (evaluated at the bin centres, unit area), over bins that cover the
-    # candidates' disparities with room for the kernel on both sides; weighted by the length of
-    # its overlapping part (times opposite_weight for opposite polarities)
-    sig_bins = smooth_px / _BIN_PX
-    radius = max(1, math.ceil(3.0 * sig_bins))
-    d_mid, weight, scale, d_base, nbins, bins, exponent, r, rows = histogram_inputs(
-        cand.disp,
-        cand.ov,
-        cand.opposite,
-        li,
-        left.slope,
-        float(opposite_weight),
-        float(sig_bins),
-        radius,
-        _BIN_PX,
-        math.sqrt(2.0 * math.pi) * sig_bins,
-    )
-    nrow = rows.size
-    ends = left.endpoints[rows]
-    C, region_exponent = histograms(
-        np.exp(exponent), scale, bins, r, nrow, nbins, 0.5 * (ends[:, 0] + ends[:, 1]), su, sv
-    )
-    Wreg = np.exp(region_exponent)
-    Wreg.flat[:: nrow + 1] = self_weight
-    Hist = Wreg @ C
-
-    # ---------------------------------------------------------------- decision
-    # the prominent peaks of each region (local maxima within +-min_peak_sep_px, the first bin
-    # of a flat top, sub-bin by a parabola), each peak's closest candidate within agree_px (the
-    # nearest peak of the candidate's row; ties: the longer overlap), uniqueness, Eq. 1: one
-    # compiled pass (``_match_kernel.decide``)
-    sel, a_k, prob, peak_disp = decide(
-        Hist,
-        r,
-        li,
-        cand.rj,
-        d_mid,
-        weight,
-        float(d_base),
-        _BIN_PX,
-        math.ceil(min_peak_sep_px / _BIN_PX),
-        float(rel_peak),
-        nbins * _BIN_PX + 4.0 * agree_px,
-        float(agree_px),
-        bool(unique_right),
-        nL,
-    )
-    if sel.size == 0:
+    inputs = histogram_inputs(cand, left.slope, opts.splat())
+    ends = left.endpoints[inputs.rows]
+    hist = _region_histograms(inputs, 0.5 * (ends[:, 0] + ends[:, 1]), opts)
+    kept = decide(hist, cand, inputs, opts.peak_rule(inputs.n_bins, len(left)))
+    if kept.sel.size == 0:
         return StereoMatches.empty(n_cand)
-    lsel, rsel, left_endpoints, disp, disp_var, uvar_l = match_rows(
-        sel,
-        li,
-        cand.rj,
-        cand.rows,
-        cand.disp,
-        (
-            left.u_center,
-            left.slope,
-            left.v_center,
-            left.point_var,
-            left.n_points,
-            left.s_vv,
-            left.bias_var,
-        ),
-        (right.v_center, right.point_var, right.n_points, right.s_vv, right.bias_var),
+    return _stereo_matches(
+        kept, cand, match_rows(kept.sel, cand, _line_fits(left), _line_fits(right)), opts, n_cand
     )
+
+
+def _stereo_matches(
+    kept: Decision, cand: Candidates, rows: MatchRows, options: MatchOptions, n_candidates: int
+) -> StereoMatches:
+    """The ``StereoMatches`` of the kept candidates and their output rows."""
     return StereoMatches._trusted(
-        n_cand,
-        left_index=lsel,
-        right_index=rsel,
-        probability=prob,
-        left_endpoints=left_endpoints,
-        disparity_px=disp,
-        disparity_var=disp_var,
-        u_left_var=uvar_l,
-        v_var=np.full(disp.shape, sigma_v_px**2),
-        peak_disparity_px=peak_disp,
-        peak_height=a_k,
-        opposite_polarity=cand.opposite[sel],
+        n_candidates,
+        left_index=rows.left_index,
+        right_index=rows.right_index,
+        probability=kept.probability,
+        left_endpoints=rows.left_endpoints,
+        disparity_px=rows.disparity,
+        disparity_var=rows.disparity_var,
+        u_left_var=rows.u_left_var,
+        v_var=np.full(rows.disparity.shape, options.sigma_v_px**2),
+        peak_disparity_px=kept.peak_disparity,
+        peak_height=kept.peak_height,
+        opposite_polarity=cand.opposite[kept.sel],
     )
+
+
+# the flat keywords keep their place in the signatures that modeling.pipeline reads
+match_segments.__signature__ = _options_signature(match_segments, MatchOptions)  # type: ignore[attr-defined]
+match_candidates.__signature__ = _options_signature(match_candidates, MatchOptions)  # type: ignore[attr-defined]

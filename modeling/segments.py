@@ -7,9 +7,10 @@ in each image row it crosses, the sub-pixel column of its edge is found as the p
 the horizontal intensity gradient (central difference, of the segment's own contrast sign) near
 the LSD line, and the horizontal position ``u = u_c + slope * (v - v_c)`` is fitted to those edge
 points by least squares, as in section 3.2 of Miura (ICRA-94). Both parts are compiled loops
-(``modeling._compiled.edge``, Numba): the row-by-row search (a block of ``2 B + 1`` pixels around the
-LSD line serves the gradient, the peak search and the grey levels on both sides) and the fit of
-each segment's line from its sums.
+(``modeling._compiled.edge``, Numba): the row-by-row search (a block of ``2 B + 1`` pixels around
+the LSD line serves the gradient, the peak search and the grey levels on both sides) and the fit
+of each segment's line from its sums. Their readable NumPy formulations are in
+:mod:`modeling.segments_reference`.
 
 Uncertainty model (section 3.2, "quantization error"). Each edge point's column is taken as
 ``u_i ~ N(a + b v_i, s^2)`` independently, where ``s^2`` is the residual variance of the fit, but at
@@ -44,20 +45,23 @@ Image frame: pixels, u right, v down, (0, 0) the centre of the top-left pixel.
 
 from __future__ import annotations
 
+import dataclasses
+import inspect
 import math
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple
+from typing import Any
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._compiled.edge import detected_lines, edge_sums, segment_fits
-from modeling.validation import FloatArray, keyword_options, positive
+from modeling._compiled.edge import EdgeSearch, FitLimits, LinesToFit, edge_sums, segment_fits
 from modeling._compiled.worker import worker
+from modeling.validation import FloatArray, positive, with_overrides
 
-__all__ = ["ImageSegments", "extract_segment_pair", "extract_segments"]
+__all__ = ["ImageSegments", "SegmentOptions", "extract_segment_pair", "extract_segments"]
 
 IntArray = NDArray[np.int64]
 
@@ -236,69 +240,20 @@ def _check_gray(gray: object, name: str) -> NDArray[np.uint8]:
     return np.ascontiguousarray(gray)
 
 
-def _check_options(
-    sigma_px: float,
-    bias_sigma_px: float,
-    min_length_px: float,
-    min_angle_deg: float,
-    min_gradient: float,
-    lsd_scale: float,
-    search_px: int,
-    trim_px: int,
-    side_px: int,
-    near_px: float,
-) -> None:
-    for name, value in (
-        ("sigma_px", sigma_px),
-        ("min_length_px", min_length_px),
-        ("lsd_scale", lsd_scale),
-    ):
-        positive(value, name)
-    positive(bias_sigma_px, "bias_sigma_px", allow_zero=True)
-    positive(min_gradient, "min_gradient", allow_zero=True)
-    if not (0.0 <= min_angle_deg < 90.0):
-        raise ValueError(f"min_angle_deg must be in [0, 90), got {min_angle_deg!r}")
-    if lsd_scale > 1.0:
-        raise ValueError(f"lsd_scale must be in (0, 1], got {lsd_scale!r}")
-    if int(search_px) != search_px or not (1 <= search_px <= _MAX_SEARCH_PX):
-        raise ValueError(
-            f"search_px must be an integer in [1, {_MAX_SEARCH_PX}], got {search_px!r}"
-        )
-    if int(trim_px) != trim_px or trim_px < 0:
-        raise ValueError(f"trim_px must be a non-negative integer, got {trim_px!r}")
-    if int(side_px) != side_px or not (1 <= side_px <= _MAX_SIDE_PX):
-        raise ValueError(f"side_px must be an integer in [1, {_MAX_SIDE_PX}], got {side_px!r}")
-    if not (0.5 <= near_px <= _MAX_SIDE_PX - 1):
-        raise ValueError(f"near_px must be in [0.5, {_MAX_SIDE_PX - 1}], got {near_px!r}")
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SegmentOptions:
+    """The options of :func:`extract_segments` and :func:`extract_segment_pair` (sections 3.1-3.2).
 
-
-def extract_segments(
-    gray: NDArray[np.uint8],
-    *,
-    sigma_px: float = 0.5,
-    bias_sigma_px: float = 0.1,
-    min_length_px: float = 12.0,
-    min_angle_deg: float = 25.0,
-    min_gradient: float = 5.0,
-    lsd_scale: float = 0.5,
-    search_px: int = 3,
-    trim_px: int = 2,
-    side_px: int = 3,
-    near_px: float = 1.5,
-) -> ImageSegments:
-    """Straight segments of a grey image, each with a least-squares horizontal position.
-
-    Args:
-        gray: (H, W) uint8 image (rectified), at least 8x8 pixels.
-        sigma_px: Nominal standard deviation of one edge point's column, px; the lower bound of the
-            per-point sigma (used in place of the fit residual when that is smaller). The rig's
-            ``sigma_px``.
+    Attributes:
+        sigma_px: Nominal standard deviation of one edge point's column, px; the lower bound of
+            the per-point sigma (used in place of the fit residual when that is smaller). The
+            rig's ``sigma_px``.
         bias_sigma_px: Standard deviation of the column error common to all edge points of a
             segment (sub-pixel quantisation of the edge by the imaging, rectification), px; added
             to the fitted variance. See the module docstring for the default.
         min_length_px: Segments shorter than this (after fitting) are dropped, px.
         min_angle_deg: Segments at less than this angle to the image rows are dropped (their
-            disparity is ill-defined along the epipolar lines), degrees.
+            disparity is ill-defined along the epipolar lines), degrees, in [0, 90).
         min_gradient: Smallest horizontal gradient (grey levels per px, central difference) that
             counts as an edge point.
         lsd_scale: Scale at which LSD detects segments, in (0, 1] (0.5: half resolution, faster
@@ -310,44 +265,88 @@ def extract_segments(
         near_px: Distance from the edge at which the "near" grey level of each side is sampled
             (linear interpolation along the row), px (0.5 to 3).
 
+    Raises:
+        ValueError: naming the option that is out of range.
+    """
+
+    sigma_px: float = 0.5
+    bias_sigma_px: float = 0.1
+    min_length_px: float = 12.0
+    min_angle_deg: float = 25.0
+    min_gradient: float = 5.0
+    lsd_scale: float = 0.5
+    search_px: int = 3
+    trim_px: int = 2
+    side_px: int = 3
+    near_px: float = 1.5
+
+    def __post_init__(self) -> None:
+        for name in ("sigma_px", "min_length_px", "lsd_scale"):
+            positive(getattr(self, name), name)
+        positive(self.bias_sigma_px, "bias_sigma_px", allow_zero=True)
+        positive(self.min_gradient, "min_gradient", allow_zero=True)
+        if not (0.0 <= self.min_angle_deg < 90.0):
+            raise ValueError(f"min_angle_deg must be in [0, 90), got {self.min_angle_deg!r}")
+        if self.lsd_scale > 1.0:
+            raise ValueError(f"lsd_scale must be in (0, 1], got {self.lsd_scale!r}")
+        search_px, trim_px, side_px = self.search_px, self.trim_px, self.side_px
+        if int(search_px) != search_px or not (1 <= search_px <= _MAX_SEARCH_PX):
+            raise ValueError(
+                f"search_px must be an integer in [1, {_MAX_SEARCH_PX}], got {search_px!r}"
+            )
+        if int(trim_px) != trim_px or trim_px < 0:
+            raise ValueError(f"trim_px must be a non-negative integer, got {trim_px!r}")
+        if int(side_px) != side_px or not (1 <= side_px <= _MAX_SIDE_PX):
+            raise ValueError(f"side_px must be an integer in [1, {_MAX_SIDE_PX}], got {side_px!r}")
+        if not (0.5 <= self.near_px <= _MAX_SIDE_PX - 1):
+            raise ValueError(f"near_px must be in [0.5, {_MAX_SIDE_PX - 1}], got {self.near_px!r}")
+
+    @property
+    def sin_min_angle(self) -> float:
+        """``sin(min_angle_deg)``: a line rising by less than this of its length is horizontal."""
+        return math.sin(math.radians(self.min_angle_deg))
+
+
+def extract_segments(
+    gray: NDArray[np.uint8], options: SegmentOptions | None = None, **overrides: Any
+) -> ImageSegments:
+    """Straight segments of a grey image, each with a least-squares horizontal position.
+
+    Args:
+        gray: (H, W) uint8 image (rectified), at least 8x8 pixels.
+        options: The options (defaults: ``SegmentOptions()``).
+        **overrides: Fields of ``SegmentOptions`` to replace, e.g. ``min_length_px=10.0``.
+
     Returns:
         The segments; empty when none is found (blank image, pure noise).
 
     Raises:
-        ValueError: ``gray`` is not a 2-D uint8 array of at least 8x8 pixels, or an option is out
-            of range.
+        ValueError: ``gray`` is not a 2-D uint8 array of at least 8x8 pixels, or an option is
+            unknown or out of range.
     """
     img = _check_gray(gray, "gray")
-    options = _Options(
-        sigma_px,
-        bias_sigma_px,
-        min_length_px,
-        min_angle_deg,
-        min_gradient,
-        lsd_scale,
-        search_px,
-        trim_px,
-        side_px,
-        near_px,
-    )
-    _check_options(*options)
-    return _fit([img], [_detect(img, options.lsd_scale)], options)[0]
+    opts = with_overrides(options, SegmentOptions, overrides)
+    return _fit([img], [_detect(img, opts.lsd_scale)], opts)[0]
 
 
 def extract_segment_pair(
-    left: NDArray[np.uint8], right: NDArray[np.uint8], **options: Any
+    left: NDArray[np.uint8],
+    right: NDArray[np.uint8],
+    options: SegmentOptions | None = None,
+    **overrides: Any,
 ) -> tuple[ImageSegments, ImageSegments]:
     """The segments of both images of a rectified pair: ``extract_segments`` of each, faster.
 
     The two line detections run at once (OpenCV releases the interpreter lock; one worker thread
-    per process), and the edge points of both images are re-localised and fitted in one
-    vectorised pass. The result is identical to ``(extract_segments(left, **options),
-    extract_segments(right, **options))``.
+    per process), and the edge points of both images are re-localised and fitted in one pass.
+    The result is identical to ``(extract_segments(left, options), extract_segments(right,
+    options))``.
 
     Args:
         left: (H, W) uint8 left image.
         right: (H, W) uint8 right image, the same shape.
-        **options: The keyword options of :func:`extract_segments`.
+        options: The options (defaults: ``SegmentOptions()``).
+        **overrides: Fields of ``SegmentOptions`` to replace.
 
     Returns:
         ``(left_segments, right_segments)``.
@@ -362,11 +361,7 @@ def extract_segment_pair(
         raise ValueError(
             f"left and right must have the same shape, got {img_l.shape}, {img_r.shape}"
         )
-    unknown = set(options) - set(_Options._fields)
-    if unknown:
-        raise ValueError(f"unknown option(s) of extract_segment_pair: {sorted(unknown)}")
-    opts = _Options(**{**_DEFAULTS, **options})
-    _check_options(*opts)
+    opts = with_overrides(options, SegmentOptions, overrides)
     job = worker().submit(_detect, img_r, opts.lsd_scale)
     lines_l = _detect(img_l, opts.lsd_scale)
     lines_r = job.result()
@@ -374,23 +369,23 @@ def extract_segment_pair(
     return segs_l, segs_r
 
 
-class _Options(NamedTuple):
-    """The keyword options of :func:`extract_segments` (its signature holds the defaults)."""
+def _options_signature(fn: Callable[..., Any], cls: type[Any]) -> inspect.Signature:
+    """``fn``'s signature with the fields of the options dataclass ``cls`` (and their defaults)
+    as keyword-only parameters in place of ``**overrides``: the flat keywords ``fn`` accepts, as
+    :func:`modeling.validation.keyword_options` reads them (``modeling.pipeline`` routes by them).
+    """
+    params = [p for p in inspect.signature(fn).parameters.values() if p.kind is not p.VAR_KEYWORD]
+    defaults = cls()
+    params += [
+        inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=getattr(defaults, f.name))
+        for f in dataclasses.fields(cls)
+    ]
+    return inspect.signature(fn).replace(parameters=params)
 
-    sigma_px: float
-    bias_sigma_px: float
-    min_length_px: float
-    min_angle_deg: float
-    min_gradient: float
-    lsd_scale: float
-    search_px: int
-    trim_px: int
-    side_px: int
-    near_px: float
 
-
-_DEFAULTS: dict[str, Any] = keyword_options(extract_segments)
-assert tuple(_DEFAULTS) == _Options._fields
+# the flat keywords keep their place in the signatures that modeling.pipeline reads
+extract_segments.__signature__ = _options_signature(extract_segments, SegmentOptions)  # type: ignore[attr-defined]
+extract_segment_pair.__signature__ = _options_signature(extract_segment_pair, SegmentOptions)  # type: ignore[attr-defined]
 
 
 # ------------------------------------------------------------------ detection and fitting
@@ -411,8 +406,45 @@ def _detect(img: NDArray[np.uint8], lsd_scale: float) -> FloatArray:
     return np.asarray(raw, dtype=np.float64).reshape(-1, 4) * to_full
 
 
+def _lines_to_fit(
+    detected: list[FloatArray], height: int, opts: SegmentOptions
+) -> tuple[list[FloatArray], LinesToFit]:
+    """The detected lines of each image sorted into the near-horizontal ones (per image, (h, 2, 2)
+    px, left end first, as detected) and the lines to fit (top end first, at least
+    ``min_length_px`` long, steep enough, crossing three rows or more after the trim at both
+    ends), with the rows each one crosses."""
+    n_img = len(detected)
+    lines = np.concatenate(detected)  # a copy: reordered in place below
+    image_of = np.repeat(np.arange(n_img), [len(d) for d in detected])
+    swap = lines[:, 1] > lines[:, 3]  # top end first
+    lines[swap] = lines[swap][:, [2, 3, 0, 1]]
+    x0, y0, x1, y1 = lines.T
+    dv = y1 - y0
+    length = np.hypot(x1 - x0, dv)
+    sin_min = opts.sin_min_angle
+    is_hor = (length >= opts.min_length_px) & (dv < sin_min * length)
+    hor = lines[is_hor].reshape(-1, 2, 2)
+    flip = hor[:, 0, 0] > hor[:, 1, 0]  # left end first
+    hor[flip] = hor[flip, ::-1]
+    hor_of = image_of[is_hor]
+    horizontal = [hor[hor_of == k] for k in range(n_img)]
+    r0 = np.maximum(np.ceil(y0).astype(np.int64) + opts.trim_px, 1)
+    r1 = np.minimum(np.floor(y1).astype(np.int64) - opts.trim_px, height - 2)
+    keep = np.flatnonzero(
+        (length >= opts.min_length_px) & (dv > 0) & (dv >= sin_min * length) & (r1 >= r0 + 2)
+    )
+    return horizontal, LinesToFit(
+        image_of=image_of[keep],
+        x0=x0[keep],
+        y0=y0[keep],
+        inv_slope=(x1[keep] - x0[keep]) / dv[keep],  # du/dv of the detected line
+        r0=r0[keep],
+        r1=r1[keep],
+    )
+
+
 def _fit(
-    images: list[NDArray[np.uint8]], detected: list[FloatArray], opts: _Options
+    images: list[NDArray[np.uint8]], detected: list[FloatArray], opts: SegmentOptions
 ) -> list[ImageSegments]:
     """Re-localise and fit the LSD lines of each image (same shapes), all in one pass.
 
@@ -422,54 +454,32 @@ def _fit(
     """
     H, W = images[0].shape
     shape = (H, W)
-    sigma_px, bias_sigma_px, min_length_px, min_angle_deg, min_gradient = opts[:5]
-    search_px, trim_px, side_px, near_px = opts.search_px, opts.trim_px, opts.side_px, opts.near_px
     n_img = len(images)
-    counts = np.array([len(d) for d in detected], dtype=np.int64)
-    if counts.sum() == 0:
+    if sum(len(d) for d in detected) == 0:
         return [ImageSegments.empty(shape) for _ in images]
-    sin_min = math.sin(math.radians(min_angle_deg))
-    # each line top end first; the near-horizontal ones (left end first) apart; the rows each
-    # other one crosses, trimmed at both ends (``_edge_kernel.detected_lines``)
-    hor, hor_count, image_of, x0, y0, inv_slope, r0, r1 = detected_lines(
-        np.concatenate(detected), counts, H, float(min_length_px), sin_min, int(trim_px)
-    )
-    bounds = np.concatenate(([0], np.cumsum(hor_count))).tolist()
-    horizontal = [hor[bounds[k] : bounds[k + 1]] for k in range(n_img)]
-    if x0.size == 0:
+    horizontal, lines = _lines_to_fit(detected, H, opts)
+    if lines.x0.size == 0:
         return [ImageSegments.empty(shape, horizontal=h) for h in horizontal]
-
-    # edge points, one per row (the compiled loop of ``_edge_kernel``), summed per segment; the
-    # pixel block around the LSD line covers the search window, the peak's neighbours and the
-    # side samples
-    B = search_px + max(side_px, math.ceil(near_px) + 1)
-    S, polarity, first_row, last_row = edge_sums(
-        np.concatenate(images) if n_img > 1 else np.ascontiguousarray(images[0]),
-        H,
-        image_of,
-        x0,
-        y0,
-        inv_slope,
-        r0,
-        r1,
-        search_px,
-        side_px,
-        float(near_px),
-        B,
-        float(min_gradient),
+    # edge points, one per row, summed per segment (``modeling.segments_reference.edge_sums_
+    # reference`` is the NumPy formulation); the pixel block around the LSD line covers the
+    # search window, the peak's neighbours and the side samples
+    search = EdgeSearch(
+        height=H,
+        search_px=int(opts.search_px),
+        side_px=int(opts.side_px),
+        near_px=float(opts.near_px),
+        half_block=opts.search_px + max(opts.side_px, math.ceil(opts.near_px) + 1),
+        min_gradient=float(opts.min_gradient),
     )
-    fit, ok = segment_fits(
-        S,
-        first_row,
-        last_row,
-        x0,
-        y0,
-        inv_slope,
-        r0,
-        float(sigma_px),
-        float(min_length_px),
-        sin_min,
+    stack = np.concatenate(images) if n_img > 1 else np.ascontiguousarray(images[0])
+    edges = edge_sums(stack, lines, search)
+    limits = FitLimits(
+        sigma_px=float(opts.sigma_px),
+        min_length_px=float(opts.min_length_px),
+        sin_min=opts.sin_min_angle,
     )
+    fit, ok = segment_fits(edges, lines, limits)
+    polarity, image_of, bias_sigma_px = edges.polarity, lines.image_of, opts.bias_sigma_px
     sel = np.flatnonzero(ok)
     out = []
     for k in range(n_img):
@@ -477,7 +487,7 @@ def _fit(
         if mine.size == 0:
             out.append(ImageSegments.empty(shape, horizontal=horizontal[k]))
             continue
-        f = fit[:, mine]  # rows as ``_edge_kernel.N_FIT`` says, contiguous
+        f = fit[:, mine]  # rows as ``modeling._compiled.edge.N_FIT`` says
         out.append(
             ImageSegments._trusted(
                 shape,

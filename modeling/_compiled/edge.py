@@ -1,21 +1,71 @@
-"""Compiled loops of the segment fit (:mod:`modeling.segments`): edge points, then lines.
+"""Compiled loops of the segment fit (:mod:`modeling.segments`, section 3.2): points, then lines.
 
 :func:`edge_sums`: for every image row a detected line crosses, the edge point is found as the
 parabolic peak of the horizontal central-difference gradient (of the segment's own contrast sign)
 in a window around the line, and the least-squares sums of the segment's edge points are
 accumulated. :func:`segment_fits`: the least-squares line of each segment from its sums. The
-arithmetic is that of the vectorised NumPy formulation they replace (float32 gradients and peak
-offsets, float64 sums), written as loops so that it costs a fraction of the many array passes.
+arithmetic is that of the NumPy references in :mod:`modeling.segments_reference` (float32
+gradients and peak offsets, float64 sums), written as loops so that it costs a fraction of the
+many array passes. The loops take and return the small named tuples below.
 
-Both are compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not
-import Numba.
+Both are compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module
+does not import Numba.
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from modeling._compiled.jit import compiled_on_first_call
+
+
+class LinesToFit(NamedTuple):
+    """The detected lines to re-localise and fit, ``m`` rows (``modeling.segments``)."""
+
+    image_of: np.ndarray  # (m,) image of each line (the images are stacked)
+    x0: np.ndarray  # (m,) upper endpoint of each line, px
+    y0: np.ndarray  # (m,)
+    inv_slope: np.ndarray  # (m,) du/dv of each line
+    r0: np.ndarray  # (m,) first row to search, within the image
+    r1: np.ndarray  # (m,) last row to search (inclusive)
+
+
+class EdgeSearch(NamedTuple):
+    """How the edge point of a row is searched and sampled (:func:`edge_sums`)."""
+
+    height: int  # rows per image
+    search_px: int  # half-width of the peak search window, px
+    side_px: int  # offset of the "far" grey samples, px
+    near_px: float  # offset of the "near" grey samples (linear interpolation), px
+    half_block: int  # half-width ``B`` of the pixel block around the line
+    min_gradient: float  # smallest peak gradient of an edge point
+
+
+class EdgeSums(NamedTuple):
+    """Per-segment sums of the edge points (:func:`edge_sums`), ``m`` rows."""
+
+    sums: np.ndarray  # (m, N_SUMS) float64, columns as ``N_SUMS`` says
+    polarity: np.ndarray  # (m,) int8
+    first_row: np.ndarray  # (m,) first row with an edge point (-1: none)
+    last_row: np.ndarray  # (m,) last row with an edge point (-1: none)
+
+
+class FitLimits(NamedTuple):
+    """The fit's variance floor and the kept segments' limits (:func:`segment_fits`)."""
+
+    sigma_px: float  # lower bound of the per-point sigma, px
+    min_length_px: float  # shortest segment kept, px
+    sin_min: float  # a kept segment rises by at least this of its length
+
+
+class SegmentFits(NamedTuple):
+    """The least-squares line of each segment (:func:`segment_fits`)."""
+
+    fit: np.ndarray  # (N_FIT, m) float64, rows as ``N_FIT`` says
+    ok: np.ndarray  # (m,) whether the segment is kept
+
 
 # Columns of the per-segment sums: n, sum v, sum u, sum v^2, sum v u, sum u^2, then the sums of the
 # peak gradient, the far grey level left and right, the near grey level left and right.
@@ -23,42 +73,21 @@ N_SUMS = 11
 
 
 @compiled_on_first_call
-def edge_sums(
-    stack: np.ndarray,
-    height: int,
-    image_of: np.ndarray,
-    x0: np.ndarray,
-    y0: np.ndarray,
-    inv_slope: np.ndarray,
-    r0: np.ndarray,
-    r1: np.ndarray,
-    search_px: int,
-    side_px: int,
-    near_px: float,
-    half_block: int,
-    min_gradient: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def edge_sums(stack: np.ndarray, lines: LinesToFit, search: EdgeSearch) -> EdgeSums:
     """Per-segment least-squares sums of the edge points (see the module docstring).
 
     Args:
         stack: (n_images * height, W) uint8, the images one below the other.
-        height: Rows per image.
-        image_of: (m,) image of each segment.
-        x0, y0: (m,) upper endpoint of each detected line, px.
-        inv_slope: (m,) du/dv of each detected line.
-        r0, r1: (m,) first and last row to search (inclusive), within the image.
-        search_px: Half-width of the peak search window, px.
-        side_px: Offset of the "far" grey samples, px.
-        near_px: Offset of the "near" grey samples (linear interpolation), px.
-        half_block: Half-width ``B`` of the pixel block around the line (replicated past the
-            image's sides).
-        min_gradient: Smallest peak gradient of an edge point.
+        lines: The lines to fit.
+        search: The search window and the samples.
 
     Returns:
-        ``(sums, polarity, first_row, last_row)``: (m, 11) float64 sums (columns as ``N_SUMS``
-        says; ``v`` relative to ``r0``, ``u`` to the detected line), (m,) int8 polarity, and the
-        first and last row with an edge point (-1 where there is none).
+        (m, 11) float64 sums (columns as ``N_SUMS`` says; ``v`` relative to ``r0``, ``u`` to the
+        detected line), (m,) int8 polarity, and the first and last row with an edge point (-1
+        where there is none). Reference: :func:`modeling.segments_reference.edge_sums_reference`.
     """
+    image_of, x0, y0, inv_slope, r0, r1 = lines
+    height, search_px, side_px, near_px, half_block, min_gradient = search
     m = x0.shape[0]
     width = stack.shape[1]
     B = half_block
@@ -142,7 +171,7 @@ def edge_sums(
             if first_row[s] < 0:
                 first_row[s] = r
             last_row[s] = r
-    return sums, polarity, first_row, last_row
+    return EdgeSums(sums=sums, polarity=polarity, first_row=first_row, last_row=last_row)
 
 
 # Rows of the per-segment fit: the two ends (u0, v0, u1, v1), the fitted line (u_center, v_center,
@@ -152,24 +181,17 @@ N_FIT = 15
 
 
 @compiled_on_first_call
-def segment_fits(
-    sums: np.ndarray,
-    first_row: np.ndarray,
-    last_row: np.ndarray,
-    x0: np.ndarray,
-    y0: np.ndarray,
-    inv_slope: np.ndarray,
-    r0: np.ndarray,
-    sigma_px: float,
-    min_length_px: float,
-    sin_min: float,
-) -> tuple[np.ndarray, np.ndarray]:
+def segment_fits(edges: EdgeSums, lines: LinesToFit, limits: FitLimits) -> SegmentFits:
     """The least-squares line of each segment from its sums (see :func:`edge_sums`).
 
     Returns:
-        ``(fit, ok)``: (15, m) float64 rows as ``N_FIT`` says, and (m,) whether the segment is
-        kept (at least 3 edge points spread over rows, long and steep enough).
+        (15, m) float64 rows as ``N_FIT`` says, and (m,) whether the segment is kept (at least 3
+        edge points spread over rows, long and steep enough). Reference:
+        :func:`modeling.segments_reference.segment_fits_reference`.
     """
+    sums, first_row, last_row = edges.sums, edges.first_row, edges.last_row
+    x0, y0, inv_slope, r0 = lines.x0, lines.y0, lines.inv_slope, lines.r0
+    sigma_px, min_length_px, sin_min = limits
     m = sums.shape[0]
     fit = np.zeros((N_FIT, m))
     ok = np.zeros(m, np.bool_)
@@ -206,7 +228,7 @@ def segment_fits(
         fit[9, s] = svv
         for c in range(5):
             fit[10 + c, s] = sums[s, 6 + c] / safe_n
-    return fit, ok
+    return SegmentFits(fit=fit, ok=ok)
 
 
 @compiled_on_first_call

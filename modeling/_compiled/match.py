@@ -1,66 +1,160 @@
-"""Compiled loops of segment matching (:mod:`modeling.matching`): the candidate grid, the inputs
-and sums of the local histograms, the decision from the region histograms (peaks, agreement,
-uniqueness, Eq. 1) and the output rows.
+"""Compiled loops of segment matching (:mod:`modeling.matching`, section 3.1): the candidate grid,
+the inputs and sums of the local histograms, the decision from the region histograms (peaks,
+agreement, uniqueness, Eq. 1) and the output rows.
 
-Each loop computes every value with the same floating-point operations, in the same order, as
-the NumPy expressions it replaced, so the matches are identical; the gain is the seventy-odd NumPy
-calls per image pair that a few dozen segments cost. The exponentials and the product of the
-region weights with the histograms stay in NumPy (its own ``exp`` and BLAS), between the loops.
+Each loop computes every value with the same floating-point operations, in the same order, as its
+readable NumPy reference in :mod:`modeling.matching_reference`, so the matches are identical; the
+gain is the seventy-odd NumPy calls per image pair that a few dozen segments cost. The
+exponentials and the product of the region weights with the histograms stay in NumPy (its own
+``exp`` and BLAS), between the loops. The loops take and return the small named tuples below.
 
-Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not import
-Numba.
+Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not
+import Numba.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 
 from modeling._compiled.jit import compiled_on_first_call
 
 
+class SegmentColumns(NamedTuple):
+    """The arrays of one image's :class:`~modeling.segments.ImageSegments` that
+    :func:`candidate_grid` reads, (n,) each unless stated."""
+
+    endpoints: np.ndarray  # (n, 2, 2) ``(u, v)`` px, top first
+    angle: np.ndarray  # from the image vertical, radians
+    polarity: np.ndarray  # int8
+    grey_far_left: np.ndarray
+    grey_far_right: np.ndarray
+    grey_near_left: np.ndarray
+    grey_near_right: np.ndarray
+    u_center: np.ndarray  # px
+    slope: np.ndarray  # du/dv
+    v_center: np.ndarray  # px
+
+
+class Constraints(NamedTuple):
+    """The candidate constraints of :class:`~modeling.matching.MatchOptions`, in the units the
+    grid uses."""
+
+    min_overlap_px: float
+    min_overlap_frac: float
+    max_angle_rad: float
+    allow_opposite: bool
+    max_grey_diff: float
+    max_near_grey_diff: float
+    min_disparity_px: float  # the rig's range, widened by the agreement margin
+    max_disparity_px: float
+
+
+class Candidates(NamedTuple):
+    """Candidate pairs as parallel arrays (``k`` rows), sorted by left, then right index."""
+
+    li: np.ndarray  # (k,) left segment
+    rj: np.ndarray  # (k,) right segment
+    rows: np.ndarray  # (k, 2) first and last row of the overlap, px
+    overlap: np.ndarray  # (k,) overlap, rows
+    disparity: np.ndarray  # (k, 2) disparity at those rows, px
+    opposite: np.ndarray  # (k,) opposite polarity
+
+
+class Splat(NamedTuple):
+    """How a candidate is spread into its histogram row."""
+
+    opposite_weight: float  # factor on an opposite-polarity candidate's weight
+    sigma_bins: float  # the Gaussian's standard deviation, bins
+    radius: int  # the nearest bin and ``radius`` bins on each side
+    bin_px: float  # bin width, px
+    norm: float  # ``sqrt(2 pi) sigma_bins``, the Gaussian's normalisation
+
+
+class HistogramInputs(NamedTuple):
+    """What the local histograms are made of (:func:`histogram_inputs`)."""
+
+    d_mid: np.ndarray  # (k,) mid disparity of each candidate, px
+    weight: np.ndarray  # (k,) length of its overlapping part, px
+    scale: np.ndarray  # (k,) histogram weight / norm
+    d_base: float  # disparity of bin 0, px
+    n_bins: int
+    bins: np.ndarray  # (k, 2 radius + 1) the bins of each splat
+    exponent: np.ndarray  # (k, 2 radius + 1) the Gaussian's exponent there
+    cand_row: np.ndarray  # (k,) histogram row of each candidate
+    rows: np.ndarray  # (n_rows,) left segment of each row
+
+
+class RegionTerms(NamedTuple):
+    """The two factors of the region histograms (:func:`histograms`)."""
+
+    own: np.ndarray  # (n_rows, n_bins) each row's own splats, summed
+    region_exponent: np.ndarray  # (n_rows, n_rows) exponent of the region Gaussian
+
+
+class PeakRule(NamedTuple):
+    """The decision's parameters (:func:`decide`)."""
+
+    bin_px: float  # bin width, px
+    half: int  # a peak is the maximum of the bins within ``half`` of it
+    rel_peak: float  # a prominent peak is at least this fraction of its row's highest bin
+    span: float  # key stride between rows (exceeds the disparity range by > agree_px)
+    agree_px: float  # a candidate agrees with the nearest peak of its row within this, px
+    unique_right: bool  # apply the uniqueness rule
+    n_left: int  # number of left segments
+
+
+class Decision(NamedTuple):
+    """The kept candidates (:func:`decide`), ``m`` rows, by left segment then decreasing peak."""
+
+    sel: np.ndarray  # (m,) indices into the k candidates
+    peak_height: np.ndarray  # (m,) ``a_k`` of the peak each agrees with
+    probability: np.ndarray  # (m,) Eq. 1
+    peak_disparity: np.ndarray  # (m,) px
+
+
+class LineFits(NamedTuple):
+    """The fitted lines of one image's segments (:class:`~modeling.segments.ImageSegments`)."""
+
+    u_center: np.ndarray
+    slope: np.ndarray
+    v_center: np.ndarray
+    point_var: np.ndarray
+    n_points: np.ndarray
+    s_vv: np.ndarray
+    bias_var: np.ndarray
+
+
+class MatchRows(NamedTuple):
+    """The output rows of the kept candidates (:func:`match_rows`), ``m`` rows."""
+
+    left_index: np.ndarray  # (m,)
+    right_index: np.ndarray  # (m,)
+    left_endpoints: np.ndarray  # (m, 2, 2) px
+    disparity: np.ndarray  # (m, 2) px
+    disparity_var: np.ndarray  # (m, 2) px^2
+    u_left_var: np.ndarray  # (m, 2) px^2
+
+
 @compiled_on_first_call
-def candidate_grid(
-    ends_l: np.ndarray,
-    angle_l: np.ndarray,
-    polarity_l: np.ndarray,
-    greys_l: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-    line_l: tuple[np.ndarray, np.ndarray, np.ndarray],
-    ends_r: np.ndarray,
-    angle_r: np.ndarray,
-    polarity_r: np.ndarray,
-    greys_r: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-    line_r: tuple[np.ndarray, np.ndarray, np.ndarray],
-    min_overlap_px: float,
-    min_overlap_frac: float,
-    max_angle_rad: float,
-    allow_opposite: bool,
-    max_grey_diff: float,
-    max_near_grey_diff: float,
-    dmin: float,
-    dmax: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def candidate_grid(left: SegmentColumns, right: SegmentColumns, c: Constraints) -> Candidates:
     """The pairs of the (nL, nR) grid that pass every constraint, row-major (by left, then right).
 
-    Args:
-        ends_l: (nL, 2, 2) the left segments' endpoints ``(u, v)``, top first.
-        angle_l: (nL,) their angles from the image vertical, radians.
-        polarity_l: (nL,) their contrast polarities.
-        greys_l: Their grey levels far left, far right, near left, near right, (nL,) each.
-        line_l: Their fitted lines: centre column, slope du/dv, centre row, (nL,) each.
-        ends_r, angle_r, polarity_r, greys_r, line_r: The same for the right segments.
-        min_overlap_px, min_overlap_frac, max_angle_rad, allow_opposite, max_grey_diff,
-            max_near_grey_diff: The constraints of ``modeling.matching._candidates``.
-        dmin, dmax: The disparity range (already widened by the margin), px.
-
-    Returns:
-        ``(li, rj, rows, ov, disp, opposite)``: left and right index (k,), first and last row of
-        the overlap (k, 2), overlap (k,), disparity at those rows (k, 2), opposite polarity (k,).
+    Reference: :func:`modeling.matching_reference.candidates_reference` (section 3.1).
     """
+    ends_l, ends_r = left.endpoints, right.endpoints
     n_left, n_right = ends_l.shape[0], ends_r.shape[0]
-    far_left_l, far_right_l, near_left_l, near_right_l = greys_l
-    far_left_r, far_right_r, near_left_r, near_right_r = greys_r
-    u_l, slope_l, v_l = line_l
-    u_r, slope_r, v_r = line_r
+    angle_l, angle_r = left.angle, right.angle
+    polarity_l, polarity_r = left.polarity, right.polarity
+    far_left_l, far_right_l = left.grey_far_left, left.grey_far_right
+    near_left_l, near_right_l = left.grey_near_left, left.grey_near_right
+    far_left_r, far_right_r = right.grey_far_left, right.grey_far_right
+    near_left_r, near_right_r = right.grey_near_left, right.grey_near_right
+    u_l, slope_l, v_l = left.u_center, left.slope, left.v_center
+    u_r, slope_r, v_r = right.u_center, right.slope, right.v_center
+    min_overlap_px, min_overlap_frac = c.min_overlap_px, c.min_overlap_frac
+    max_grey_diff, max_near_grey_diff = c.max_grey_diff, c.max_near_grey_diff
     cap = n_left * n_right
     li = np.empty(cap, np.int64)
     rj = np.empty(cap, np.int64)
@@ -80,10 +174,10 @@ def candidate_grid(
             ov = hi - lo
             if not ov >= max(min_overlap_px, min_overlap_frac * min(len_l, v1r - v0r)):
                 continue
-            if not abs(angle_l[i] - angle_r[j]) <= max_angle_rad:
+            if not abs(angle_l[i] - angle_r[j]) <= c.max_angle_rad:
                 continue
             opposite = polarity_l[i] != polarity_r[j]
-            if opposite and not allow_opposite:
+            if opposite and not c.allow_opposite:
                 continue
             # photometric agreement of the four side samples (module docstring of matching)
             far_l = abs(far_left_l[i] - far_left_r[j]) <= max_grey_diff
@@ -103,7 +197,9 @@ def candidate_grid(
             d_s = slope_l[i] - slope_r[j]
             d_lo = d_a + d_s * lo
             d_hi = d_a + d_s * hi
-            if not (min(d_lo, d_hi) >= dmin and max(d_lo, d_hi) <= dmax):
+            if not (
+                min(d_lo, d_hi) >= c.min_disparity_px and max(d_lo, d_hi) <= c.max_disparity_px
+            ):
                 continue
             li[k] = i
             rj[k] = j
@@ -114,49 +210,36 @@ def candidate_grid(
             disp[k, 1] = d_hi
             opposite_out[k] = opposite
             k += 1
-    return li[:k], rj[:k], rows[:k], ov_out[:k], disp[:k], opposite_out[:k]
+    return Candidates(
+        li=li[:k],
+        rj=rj[:k],
+        rows=rows[:k],
+        overlap=ov_out[:k],
+        disparity=disp[:k],
+        opposite=opposite_out[:k],
+    )
 
 
 @compiled_on_first_call
-def decide(
-    hist: np.ndarray,
-    cand_row: np.ndarray,
-    li: np.ndarray,
-    rj: np.ndarray,
-    d_mid: np.ndarray,
-    weight: np.ndarray,
-    d_base: float,
-    bin_px: float,
-    half: int,
-    rel_peak: float,
-    span: float,
-    agree_px: float,
-    unique_right: bool,
-    n_left: int,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def decide(hist: np.ndarray, cand: Candidates, inputs: HistogramInputs, rule: PeakRule) -> Decision:
     """The kept candidates of ``modeling.matching.match_segments`` from its region histograms.
 
     Args:
-        hist: (nrow, nbins) the region histogram of each left segment that has candidates.
-        cand_row: (k,) the histogram row of each candidate.
-        li, rj: (k,) left and right segment of each candidate (sorted by left, then right).
-        d_mid: (k,) mid disparity of each candidate, px.
-        weight: (k,) length of each candidate's overlapping part, px.
-        d_base: Disparity of bin 0, px.
-        bin_px: Bin width, px.
-        half: A peak is the maximum of the bins within ``half`` of it.
-        rel_peak: A prominent peak is at least this fraction of its row's highest bin.
-        span: Key stride between rows (exceeds the disparity range by more than ``agree_px``).
-        agree_px: A candidate agrees with the nearest peak of its row within this, px.
-        unique_right: Apply the uniqueness rule (module docstring of ``modeling.matching``).
-        n_left: Number of left segments.
+        hist: (n_rows, n_bins) the region histogram of each left segment that has candidates.
+        cand: The candidates (sorted by left, then right).
+        inputs: Their mid disparities, weights, histogram rows and the disparity of bin 0.
+        rule: Peaks, agreement and uniqueness.
 
     Returns:
-        ``(sel, peak_height, probability, peak_disparity)``: the kept candidates (indices into
-        the k candidates) sorted by left segment then decreasing peak height, the height of the
-        peak each agrees with, their probabilities (Eq. 1) and their peaks' disparities, px.
-        ``sel`` is empty when nothing is kept.
+        The kept candidates sorted by left segment then decreasing peak height, the height of the
+        peak each agrees with, their probabilities (Eq. 1) and their peaks' disparities, px;
+        empty when nothing is kept. Reference:
+        :func:`modeling.matching_reference.decide_matches_reference` (section 3.1, Eq. 1).
     """
+    li, rj = cand.li, cand.rj
+    d_mid, weight, cand_row, d_base = inputs.d_mid, inputs.weight, inputs.cand_row, inputs.d_base
+    bin_px, half, rel_peak, span = rule.bin_px, rule.half, rule.rel_peak, rule.span
+    agree_px, n_left = rule.agree_px, rule.n_left
     nrow, nbins = hist.shape
     # prominent peaks, row-major: the maximum of their window (zeros past the ends), the first
     # bin of a flat top, at least rel_peak of the row's highest bin, above zero
@@ -183,7 +266,9 @@ def decide(
     empty_i = np.empty(0, np.int64)
     empty_f = np.empty(0)
     if n_peaks == 0:
-        return empty_i, empty_f, empty_f, empty_f
+        return Decision(
+            sel=empty_i, peak_height=empty_f, probability=empty_f, peak_disparity=empty_f
+        )
     # sub-bin position by a parabola through the three bins around each peak
     h0 = np.empty(n_peaks)
     peak_pos = np.empty(n_peaks)
@@ -229,7 +314,7 @@ def decide(
     a_k = np.empty(n_sel)
     for s in range(n_sel):
         a_k[s] = h0[best_peak[sel[s]]]
-    if unique_right and n_sel > 0:
+    if rule.unique_right and n_sel > 0:
         # a certain claim on a shared right segment loses to another left segment's claim on it
         # at another disparity with a higher peak (ties: the longer overlap)
         right_count = np.zeros(rj.max() + 1, np.int64)
@@ -268,45 +353,30 @@ def decide(
     for s in range(n_sel):
         prob[s] = a_k[s] / total[li[sel[s]]]
         peak_disp[s] = peak_pos[best_peak[sel[s]]]
-    return sel, a_k, prob, peak_disp
+    return Decision(sel=sel, peak_height=a_k, probability=prob, peak_disparity=peak_disp)
 
 
 @compiled_on_first_call
-def histogram_inputs(
-    disp: np.ndarray,
-    ov: np.ndarray,
-    opposite: np.ndarray,
-    li: np.ndarray,
-    slope_l: np.ndarray,
-    opposite_weight: float,
-    sig_bins: float,
-    radius: int,
-    bin_px: float,
-    norm: float,
-) -> tuple[
-    np.ndarray, np.ndarray, np.ndarray, float, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray
-]:
+def histogram_inputs(cand: Candidates, slope_l: np.ndarray, splat: Splat) -> HistogramInputs:
     """What the local histograms are made of, for k >= 1 candidates sorted by left segment.
 
     Args:
-        disp: (k, 2) each candidate's disparity at both ends of its overlap, px.
-        ov: (k,) its overlap, rows.
-        opposite: (k,) whether its polarities are opposite.
-        li: (k,) its left segment.
+        cand: The candidates.
         slope_l: (nL,) the left segments' slopes du/dv.
-        opposite_weight: Factor on the weight of an opposite-polarity candidate.
-        sig_bins: Standard deviation of the splat, bins.
-        radius: The splat covers the nearest bin and ``radius`` bins on each side.
-        bin_px: Bin width, px.
-        norm: ``sqrt(2 pi) sig_bins``, the Gaussian's normalisation.
+        splat: How each candidate is spread over the bins.
 
     Returns:
-        ``(d_mid, weight, scale, d_base, nbins, bins, exponent, cand_row, rows)``: mid disparity
-        (k,), length of the overlapping part (k,), splat factor (k,: histogram weight / norm),
-        disparity of bin 0, number of bins, the (k, 2 radius + 1) bins of each splat and the
-        Gaussian's exponent there, the histogram row of each candidate (k,), the left segment
-        of each row (nrow,).
+        Mid disparities, weights (overlap lengths) and splat factors, the bins, each candidate's
+        row. Reference: :func:`modeling.matching_reference.local_histograms_reference`.
     """
+    li, disp, ov, opposite = cand.li, cand.disparity, cand.overlap, cand.opposite
+    opposite_weight, sig_bins, radius, bin_px = (
+        splat.opposite_weight,
+        splat.sigma_bins,
+        splat.radius,
+        splat.bin_px,
+    )
+    norm = splat.norm
     k = li.shape[0]
     d_mid = np.empty(k)
     weight = np.empty(k)
@@ -342,35 +412,37 @@ def histogram_inputs(
             bins[c, t] = b
             z = (b - x) / sig_bins
             exponent[c, t] = -0.5 * z * z
-    return d_mid, weight, scale, d_base, nbins, bins, exponent, cand_row, rows[: row + 1]
+    return HistogramInputs(
+        d_mid=d_mid,
+        weight=weight,
+        scale=scale,
+        d_base=d_base,
+        n_bins=nbins,
+        bins=bins,
+        exponent=exponent,
+        cand_row=cand_row,
+        rows=rows[: row + 1],
+    )
 
 
 @compiled_on_first_call
 def histograms(
-    gauss: np.ndarray,
-    scale: np.ndarray,
-    bins: np.ndarray,
-    cand_row: np.ndarray,
-    n_rows: int,
-    nbins: int,
-    mid: np.ndarray,
-    sigma_u: float,
-    sigma_v: float,
-) -> tuple[np.ndarray, np.ndarray]:
+    inputs: HistogramInputs, gauss: np.ndarray, mid: np.ndarray, sigma_u: float, sigma_v: float
+) -> RegionTerms:
     """Each left segment's own histogram, and the exponents of the region weights.
 
     Args:
-        gauss: (k, w) the Gaussian at each candidate's splat bins.
-        scale: (k,) each candidate's splat factor.
-        bins, cand_row: As :func:`histogram_inputs` returns them.
-        n_rows, nbins: Histogram rows and bins.
+        inputs: As :func:`histogram_inputs` returns them.
+        gauss: (k, w) the Gaussian at each candidate's splat bins (``exp(inputs.exponent)``).
         mid: (n_rows, 2) midpoint of each row's left segment, px.
         sigma_u, sigma_v: The region Gaussian's standard deviations, px.
 
     Returns:
-        ``(own, exponent)``: (n_rows, nbins) the splats summed per row, in candidate order;
-        (n_rows, n_rows) the exponent of the Gaussian of the distance between two rows' segments.
+        (n_rows, n_bins) the splats summed per row, in candidate order; (n_rows, n_rows) the
+        exponent of the Gaussian of the distance between two rows' segments.
     """
+    bins, cand_row, scale = inputs.bins, inputs.cand_row, inputs.scale
+    n_rows, nbins = inputs.rows.shape[0], inputs.n_bins
     own = np.zeros((n_rows, nbins))
     for c in range(bins.shape[0]):
         for t in range(bins.shape[1]):
@@ -381,35 +453,23 @@ def histograms(
             du = (mid[i, 0] - mid[j, 0]) / sigma_u
             dv = (mid[i, 1] - mid[j, 1]) / sigma_v
             exponent[i, j] = -0.5 * (du * du + dv * dv)
-    return own, exponent
+    return RegionTerms(own=own, region_exponent=exponent)
 
 
 @compiled_on_first_call
-def match_rows(
-    sel: np.ndarray,
-    li: np.ndarray,
-    rj: np.ndarray,
-    rows_px: np.ndarray,
-    disp: np.ndarray,
-    fit_l: tuple[np.ndarray, ...],
-    var_r: tuple[np.ndarray, ...],
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The output rows of the kept candidates ``sel``.
-
-    Args:
-        sel: (m,) the kept candidates.
-        li, rj, rows_px, disp: The candidates' left and right segments, (k,) each, their overlap's
-            first and last row and the disparity there, (k, 2) each.
-        fit_l: The left segments' ``u_center, slope, v_center, point_var, n_points, s_vv`` and
-            ``bias_var`` (:class:`~modeling.segments.ImageSegments`; ``u_at``, ``u_var_at``).
-        var_r: The right segments' ``v_center, point_var, n_points, s_vv, bias_var``.
-
-    Returns:
-        ``(left_index, right_index, left_endpoints, disparity, disparity_var, u_left_var)``:
-        (m,), (m,), (m, 2, 2), (m, 2), (m, 2), (m, 2).
-    """
-    u_l, slope_l, v_l, pvar_l, npts_l, svv_l, bias_l = fit_l
-    v_r, pvar_r, npts_r, svv_r, bias_r = var_r
+def match_rows(sel: np.ndarray, cand: Candidates, left: LineFits, right: LineFits) -> MatchRows:
+    """The output rows of the kept candidates ``sel`` (m,): the overlap's ends on the left fitted
+    line, the disparities there and their variances (``ImageSegments.u_at``, ``u_var_at``)."""
+    li, rj, rows_px, disp = cand.li, cand.rj, cand.rows, cand.disparity
+    u_l, slope_l, v_l = left.u_center, left.slope, left.v_center
+    pvar_l, npts_l, svv_l, bias_l = left.point_var, left.n_points, left.s_vv, left.bias_var
+    v_r, pvar_r, npts_r, svv_r, bias_r = (
+        right.v_center,
+        right.point_var,
+        right.n_points,
+        right.s_vv,
+        right.bias_var,
+    )
     m = sel.shape[0]
     left_index = np.empty(m, np.int64)
     right_index = np.empty(m, np.int64)
@@ -433,4 +493,11 @@ def match_rows(
             u_left_var[s, e] = var_l
             disparity_var[s, e] = var_l + var_r_
             disparity[s, e] = disp[c, e]
-    return left_index, right_index, ends, disparity, disparity_var, u_left_var
+    return MatchRows(
+        left_index=left_index,
+        right_index=right_index,
+        left_endpoints=ends,
+        disparity=disparity,
+        disparity_var=disparity_var,
+        u_left_var=u_left_var,
+    )
