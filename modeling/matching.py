@@ -22,19 +22,22 @@ Candidates (left segment ``i``, right segment ``j``) must satisfy
 
 ``match_candidates`` returns exactly these pairs (what the histograms then decide among).
 
-Local disparity histogram [Miura ICRA-94, ref. 9]. Each candidate puts its mid disparity into the
-histogram of its left segment (1 px bins), weighted by the length of the overlapping part (times
-``opposite_weight`` for an opposite-polarity pair) and spread as a Gaussian of standard deviation
-``smooth_px`` (the smoothing of the histogram). The histogram of the *region around* left segment
-``i`` is the sum of those of all left segments, each weighted by a Gaussian of the image distance
-between segment midpoints (``region_sigma_px``; ``self_weight`` for ``i`` itself). Its prominent
-peaks are the local maxima (within ``min_peak_sep_px``) of at least ``rel_peak`` times the highest
-one, located to a fraction of a bin by a parabola.
+Local disparity histogram [Miura ICRA-94, ref. 9] (:mod:`modeling.disparity_histograms`). Each
+candidate puts its mid disparity into the histogram of its left segment (1 px bins), weighted by
+the length of the overlapping part (times ``opposite_weight`` for an opposite-polarity pair) and
+spread as a Gaussian of standard deviation ``smooth_px`` (the smoothing of the histogram). The
+histogram of the *region around* left segment ``i`` is the sum of those of all left segments, each
+weighted by a Gaussian of the image distance between segment midpoints (``region_sigma_px``;
+``self_weight`` for ``i`` itself). Its prominent peaks are the local maxima (within
+``min_peak_sep_px``) of at least ``rel_peak`` times the highest one, located to a fraction of a
+bin by a parabola.
 
-Decision. For every prominent peak ``k`` of segment ``i``'s region, the candidate of ``i`` whose
-disparity is closest to the peak (within ``agree_px``) is kept. If one peak is matched, the match is
-certain (probability 1); if several are, each kept candidate gets ``a_k / sum_j a_j`` (Eq. 1), where
-``a_k`` is the height of its peak. Left segments with no agreeing candidate are dropped.
+Decision (:func:`modeling.disparity_histograms.decide_matches_reference`, the readable rule;
+:func:`modeling._compiled.match.decide` runs it). For every prominent peak ``k`` of segment
+``i``'s region, the candidate of ``i`` whose disparity is closest to the peak (within
+``agree_px``) is kept. If one peak is matched, the match is certain (probability 1); if several
+are, each kept candidate gets ``a_k / sum_j a_j`` (Eq. 1), where ``a_k`` is the height of its
+peak. Left segments with no agreeing candidate are dropped.
 
 Uniqueness (``unique_right``). One right segment is the image of one 3D edge, so two left segments
 cannot both be right about it at different disparities. A *certain* claim (the left segment's only
@@ -54,22 +57,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._compiled.match import (
-    Candidates,
-    Constraints,
-    Decision,
-    HistogramInputs,
-    LineFits,
-    MatchRows,
-    PeakRule,
-    SegmentColumns,
-    Splat,
-    candidate_grid,
-    decide,
-    histogram_inputs,
-    histograms,
-    match_rows,
-)
+from modeling._compiled.match import Candidates, Decision, PeakRule, decide
+from modeling.disparity_histograms import Splat, histogram_inputs, region_histograms
 from modeling.rig import StereoRig
 from modeling.segments import ImageSegments, _options_signature
 from modeling.validation import FloatArray, boolean, positive, with_overrides
@@ -316,19 +305,6 @@ class MatchOptions:
         boolean(bool(self.allow_opposite), "allow_opposite")
         boolean(bool(self.unique_right), "unique_right")
 
-    def constraints(self, rig: StereoRig) -> Constraints:
-        """The candidate constraints for ``rig``'s disparity range (widened by ``agree_px``)."""
-        return Constraints(
-            min_overlap_px=float(self.min_overlap_px),
-            min_overlap_frac=float(self.min_overlap_frac),
-            max_angle_rad=math.radians(self.max_angle_diff_deg),
-            allow_opposite=bool(self.allow_opposite),
-            max_grey_diff=float(self.max_grey_diff),
-            max_near_grey_diff=float(self.max_near_grey_diff),
-            min_disparity_px=max(rig.min_disparity_px - self.agree_px, 1e-3),
-            max_disparity_px=rig.max_disparity_px + self.agree_px,
-        )
-
     def splat(self) -> Splat:
         """How a candidate is spread into its segment's histogram (1 px bins)."""
         sig_bins = self.smooth_px / BIN_PX
@@ -369,49 +345,59 @@ def _check_inputs(
     return left, right, rig  # type: ignore[return-value]
 
 
-def _columns(segments: ImageSegments) -> SegmentColumns:
-    """The arrays of ``segments`` that the candidate grid reads."""
-    s = segments
-    return SegmentColumns(
-        endpoints=s.endpoints,
-        angle=s.angle_rad,
-        polarity=s.polarity,
-        grey_far_left=s.grey_left,
-        grey_far_right=s.grey_right,
-        grey_near_left=s.grey_left_near,
-        grey_near_right=s.grey_right_near,
-        u_center=s.u_center,
-        slope=s.slope,
-        v_center=s.v_center,
+def _candidates(
+    left: ImageSegments, right: ImageSegments, rig: StereoRig, options: MatchOptions
+) -> Candidates:
+    """The (left, right) pairs that pass the matching constraints (section 3.1; the module
+    docstring), sorted by left, then right index (``k`` rows, possibly zero).
+
+    Every constraint is evaluated on the whole (nL, nR) grid of pairs, and the pairs are gathered
+    at the end.
+    """
+    o = options
+    v0L, v1L = left.endpoints[:, 0, 1], left.endpoints[:, 1, 1]
+    v0R, v1R = right.endpoints[:, 0, 1], right.endpoints[:, 1, 1]
+    n_right = v0R.shape[0]
+    rows = np.empty((v0L.shape[0], n_right, 2))  # first and last row of the overlap, px
+    lo = np.maximum(v0L[:, None], v0R, out=rows[..., 0])
+    hi = np.minimum(v1L[:, None], v1R, out=rows[..., 1])
+    # epipolar: the row ranges overlap enough
+    ov = hi - lo
+    ok = ov >= np.maximum(
+        o.min_overlap_px, o.min_overlap_frac * np.minimum((v1L - v0L)[:, None], v1R - v0R)
     )
-
-
-def _line_fits(segments: ImageSegments) -> LineFits:
-    """The fitted lines of ``segments`` (what the output rows read)."""
-    s = segments
-    return LineFits(
-        u_center=s.u_center,
-        slope=s.slope,
-        v_center=s.v_center,
-        point_var=s.point_var,
-        n_points=s.n_points,
-        s_vv=s.s_vv,
-        bias_var=s.bias_var,
+    # direction: similar angles, the same polarity or (allow_opposite) the opposite one
+    ok &= np.abs(left.angle_rad[:, None] - right.angle_rad) <= math.radians(o.max_angle_diff_deg)
+    opposite = left.polarity[:, None] != right.polarity
+    if not o.allow_opposite:
+        ok &= ~opposite
+    # photometric agreement of the four side samples: far left, far right, near left, near right
+    far_l = np.abs(left.grey_left[:, None] - right.grey_left) <= o.max_grey_diff
+    far_r = np.abs(left.grey_right[:, None] - right.grey_right) <= o.max_grey_diff
+    near_l = np.abs(left.grey_left_near[:, None] - right.grey_left_near) <= o.max_near_grey_diff
+    near_r = np.abs(left.grey_right_near[:, None] - right.grey_right_near) <= o.max_near_grey_diff
+    ok &= np.where(opposite, (far_l & near_l) | (far_r & near_r), (far_l | far_r) & near_l & near_r)
+    # disparity along the pair: d(v) = u_left(v) - u_right(v) = (a_l - a_r) + (s_l - s_r) v, with
+    # u(v) = a + s v the fitted lines; in the rig's range (widened by agree_px) at both ends
+    a_l = left.u_center - left.slope * left.v_center
+    a_r = right.u_center - right.slope * right.v_center
+    d_a = a_l[:, None] - a_r
+    d_s = left.slope[:, None] - right.slope
+    disp = d_a[..., None] + d_s[..., None] * rows
+    d_lo, d_hi = disp[..., 0], disp[..., 1]
+    dmin = max(rig.min_disparity_px - o.agree_px, 1e-3)
+    dmax = rig.max_disparity_px + o.agree_px
+    ok &= (np.minimum(d_lo, d_hi) >= dmin) & (np.maximum(d_lo, d_hi) <= dmax)
+    flat = np.flatnonzero(ok)  # row-major: sorted by left, then right index
+    li, rj = np.divmod(flat, n_right)
+    return Candidates(
+        li=li,
+        rj=rj,
+        rows=rows.reshape(-1, 2)[flat],
+        overlap=ov.ravel()[flat],
+        disparity=disp.reshape(-1, 2)[flat],
+        opposite=opposite.ravel()[flat],
     )
-
-
-def _region_histograms(
-    inputs: HistogramInputs, mid: FloatArray, options: MatchOptions
-) -> FloatArray:
-    """(n_rows, n_bins) the local disparity histogram of the region around each left segment
-    with candidates: its own histogram and its neighbours', weighted by a Gaussian of the
-    distance between segment midpoints ``mid`` (n_rows, 2) px (``self_weight`` for itself)."""
-    su, sv = options.region_sigma_px
-    terms = histograms(inputs, np.exp(inputs.exponent), mid, su, sv)
-    w_region = np.exp(terms.region_exponent)
-    w_region.flat[:: inputs.rows.size + 1] = options.self_weight
-    hist: FloatArray = w_region @ terms.own
-    return hist
 
 
 def match_candidates(
@@ -440,7 +426,7 @@ def match_candidates(
     """
     left, right, rig = _check_inputs(left, right, rig)
     opts = with_overrides(options, MatchOptions, overrides)
-    cand = candidate_grid(_columns(left), _columns(right), opts.constraints(rig))
+    cand = _candidates(left, right, rig, opts)
     return MatchCandidates(
         left_index=cand.li,
         right_index=cand.rj,
@@ -460,11 +446,10 @@ def match_segments(
 ) -> StereoMatches:
     """Match left and right segments of a rectified pair (section 3.1, Eq. 1 of section 3.3).
 
-    The paper's steps, each a compiled loop whose readable NumPy reference (the same operations,
-    equal results) is in :mod:`modeling.matching_reference`: the candidates
-    (``candidates_reference``), the local disparity histograms of the regions
-    (``histogram_inputs_reference``, ``region_histograms_reference``), the decision by their
-    prominent peaks with Eq. 1 (``decide_matches_reference``) and the output rows.
+    The paper's steps: the candidates (epipolar overlap, direction, photometry, disparity range),
+    the local disparity histograms of the regions and the decision by their prominent peaks with
+    Eq. 1 (:mod:`modeling.disparity_histograms`; the decision runs as a compiled loop equal to
+    ``decide_matches_reference``), then the kept pairs' endpoints and variances.
 
     Args:
         left: Segments of the left (reference) image.
@@ -482,38 +467,52 @@ def match_segments(
     """
     left, right, rig = _check_inputs(left, right, rig)
     opts = with_overrides(options, MatchOptions, overrides)
-    cand = candidate_grid(_columns(left), _columns(right), opts.constraints(rig))
+    cand = _candidates(left, right, rig, opts)
     n_cand = int(cand.li.size)
     if n_cand == 0:
         return StereoMatches.empty()
     inputs = histogram_inputs(cand, left.slope, opts.splat())
     ends = left.endpoints[inputs.rows]
-    hist = _region_histograms(inputs, 0.5 * (ends[:, 0] + ends[:, 1]), opts)
+    mid = 0.5 * (ends[:, 0] + ends[:, 1])
+    hist = region_histograms(inputs, mid, opts.region_sigma_px, opts.self_weight)
     kept = decide(hist, cand, inputs, opts.peak_rule(inputs.n_bins, len(left)))
     if kept.sel.size == 0:
         return StereoMatches.empty(n_cand)
-    return _stereo_matches(
-        kept, cand, match_rows(kept.sel, cand, _line_fits(left), _line_fits(right)), opts, n_cand
-    )
+    return _stereo_matches(kept, cand, left, right, opts.sigma_v_px, n_cand)
 
 
 def _stereo_matches(
-    kept: Decision, cand: Candidates, rows: MatchRows, options: MatchOptions, n_candidates: int
+    kept: Decision,
+    cand: Candidates,
+    left: ImageSegments,
+    right: ImageSegments,
+    sigma_v_px: float,
+    n_candidates: int,
 ) -> StereoMatches:
-    """The ``StereoMatches`` of the kept candidates and their output rows."""
+    """The kept candidates as ``StereoMatches``: the overlap's ends on the left fitted line, the
+    disparities there and their variances (the images are independent: ``var d = var u_left +
+    var u_right``, section 3.2)."""
+    sel = kept.sel
+    lsel, rsel = cand.li[sel], cand.rj[sel]
+    v_ends = cand.rows[sel]
+    uvar_l = left.u_var_at(lsel[:, None], v_ends)
+    left_endpoints = np.empty((sel.size, 2, 2))
+    left_endpoints[..., 0] = left.u_at(lsel[:, None], v_ends)
+    left_endpoints[..., 1] = v_ends
+    disp = cand.disparity[sel]
     return StereoMatches._trusted(
         n_candidates,
-        left_index=rows.left_index,
-        right_index=rows.right_index,
+        left_index=lsel,
+        right_index=rsel,
         probability=kept.probability,
-        left_endpoints=rows.left_endpoints,
-        disparity_px=rows.disparity,
-        disparity_var=rows.disparity_var,
-        u_left_var=rows.u_left_var,
-        v_var=np.full(rows.disparity.shape, options.sigma_v_px**2),
+        left_endpoints=left_endpoints,
+        disparity_px=disp,
+        disparity_var=uvar_l + right.u_var_at(rsel[:, None], v_ends),
+        u_left_var=uvar_l,
+        v_var=np.full(disp.shape, sigma_v_px**2),
         peak_disparity_px=kept.peak_disparity,
         peak_height=kept.peak_height,
-        opposite_polarity=cand.opposite[kept.sel],
+        opposite_polarity=cand.opposite[sel],
     )
 
 
