@@ -6,11 +6,11 @@ are always reshaped to (N, 4)). Every detected segment is then *re-localised at 
 in each image row it crosses, the sub-pixel column of its edge is found as the parabolic peak of
 the horizontal intensity gradient (central difference, of the segment's own contrast sign) near
 the LSD line, and the horizontal position ``u = u_c + slope * (v - v_c)`` is fitted to those edge
-points by least squares, as in section 3.2 of Miura (ICRA-94). Both parts are compiled loops
-(``modeling._compiled.edge``, Numba): the row-by-row search (a block of ``2 B + 1`` pixels around
-the LSD line serves the gradient, the peak search and the grey levels on both sides) and the fit
-of each segment's line from its sums. Their readable NumPy formulations are in
-:mod:`modeling.segments_reference`.
+points by least squares, as in section 3.2 of Miura (ICRA-94). The row-by-row search is a
+compiled loop (``modeling._compiled.edge``, Numba; a block of ``2 B + 1`` pixels around the LSD
+line serves the gradient, the peak search and the grey levels on both sides) whose readable NumPy
+formulation is :func:`modeling.edge_points.edge_sums_reference`; the fit of each segment's line
+from its sums is :func:`_least_squares_lines`.
 
 Uncertainty model (section 3.2, "quantization error"). Each edge point's column is taken as
 ``u_i ~ N(a + b v_i, s^2)`` independently, where ``s^2`` is the residual variance of the fit, but at
@@ -57,7 +57,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._compiled.edge import EdgeSearch, FitLimits, LinesToFit, edge_sums, segment_fits
+from modeling._compiled.edge import EdgeSearch, EdgeSums, LinesToFit, edge_sums
 from modeling._compiled.worker import worker
 from modeling.validation import FloatArray, positive, with_overrides
 
@@ -460,8 +460,8 @@ def _fit(
     horizontal, lines = _lines_to_fit(detected, H, opts)
     if lines.x0.size == 0:
         return [ImageSegments.empty(shape, horizontal=h) for h in horizontal]
-    # edge points, one per row, summed per segment (``modeling.segments_reference.edge_sums_
-    # reference`` is the NumPy formulation); the pixel block around the LSD line covers the
+    # edge points, one per row, summed per segment (``modeling.edge_points.edge_sums_reference``
+    # is the NumPy formulation); the pixel block around the LSD line covers the
     # search window, the peak's neighbours and the side samples
     search = EdgeSearch(
         height=H,
@@ -473,39 +473,73 @@ def _fit(
     )
     stack = np.concatenate(images) if n_img > 1 else np.ascontiguousarray(images[0])
     edges = edge_sums(stack, lines, search)
-    limits = FitLimits(
-        sigma_px=float(opts.sigma_px),
-        min_length_px=float(opts.min_length_px),
-        sin_min=opts.sin_min_angle,
-    )
-    fit, ok = segment_fits(edges, lines, limits)
-    polarity, image_of, bias_sigma_px = edges.polarity, lines.image_of, opts.bias_sigma_px
-    sel = np.flatnonzero(ok)
+    fit = _least_squares_lines(edges, lines, opts)
+    sel = np.flatnonzero(fit.pop("ok"))
     out = []
     for k in range(n_img):
-        mine = sel[image_of[sel] == k]
+        mine = sel[lines.image_of[sel] == k]
         if mine.size == 0:
             out.append(ImageSegments.empty(shape, horizontal=horizontal[k]))
             continue
-        f = fit[:, mine]  # rows as ``modeling._compiled.edge.N_FIT`` says
         out.append(
             ImageSegments._trusted(
                 shape,
-                endpoints=f[:4].T.reshape(-1, 2, 2),
-                u_center=f[4],
-                v_center=f[5],
-                slope=f[6],
-                point_var=f[7],
-                n_points=f[8].astype(np.int64),
-                s_vv=f[9],
-                bias_var=np.full(mine.size, float(bias_sigma_px) ** 2),
-                polarity=polarity[mine],
-                contrast=f[10],
-                grey_left=f[11],
-                grey_right=f[12],
-                grey_left_near=f[13],
-                grey_right_near=f[14],
+                bias_var=np.full(mine.size, float(opts.bias_sigma_px) ** 2),
+                polarity=edges.polarity[mine],
                 horizontal=horizontal[k],
+                **{name: values[mine] for name, values in fit.items()},
             )
         )
     return out
+
+
+def _least_squares_lines(
+    edges: EdgeSums, lines: LinesToFit, opts: SegmentOptions
+) -> dict[str, np.ndarray]:
+    """The least-squares line ``u = u_c + slope (v - v_c)`` of each line's edge points from their
+    sums (section 3.2), with its variances and mean grey levels.
+
+    Returns:
+        The ``ImageSegments`` fields ``endpoints`` (m, 2, 2), ``u_center``, ``v_center``,
+        ``slope``, ``point_var``, ``n_points``, ``s_vv``, ``contrast``, ``grey_left``,
+        ``grey_right``, ``grey_left_near``, ``grey_right_near`` (m,) each, and ``ok`` (m,):
+        whether the segment is kept (at least 3 edge points spread over rows, at least
+        ``min_length_px`` long and steep enough).
+    """
+    S = edges.sums  # columns as ``modeling._compiled.edge.N_SUMS`` says
+    n = S[:, 0]
+    safe_n = np.maximum(n, 1.0)
+    mv = S[:, 1] / safe_n
+    mu = S[:, 2] / safe_n
+    svv = S[:, 3] - n * mv * mv
+    suv = S[:, 4] - n * mv * mu
+    suu = S[:, 5] - n * mu * mu
+    ok = (n >= 3) & (svv > 1e-9)
+    b = suv / np.where(ok, svv, 1.0)  # slope relative to the detected line
+    rss = np.maximum(suu - b * suv, 0.0)
+    slope = lines.inv_slope + b
+    vc = lines.r0 + mv  # mean row of the edge points
+    uc = lines.x0 + lines.inv_slope * (vc - lines.y0) + mu  # the fitted column there
+    grey = S[:, 6:] / safe_n[:, None]  # contrast, grey far left, far right, near left, near right
+    # the ends: the first and last row with edge points
+    v0 = edges.first_row.astype(np.float64)
+    v1 = edges.last_row.astype(np.float64)
+    u0 = uc + slope * (v0 - vc)
+    u1 = uc + slope * (v1 - vc)
+    seg_len = np.hypot(u1 - u0, v1 - v0)
+    ok &= (v1 > v0) & (seg_len >= opts.min_length_px) & ((v1 - v0) >= opts.sin_min_angle * seg_len)
+    return {
+        "ok": ok,
+        "endpoints": np.stack([u0, v0, u1, v1], axis=1).reshape(-1, 2, 2),
+        "u_center": uc,
+        "v_center": vc,
+        "slope": slope,
+        "point_var": np.maximum(rss / np.maximum(n - 2.0, 1.0), opts.sigma_px**2),
+        "n_points": n.astype(np.int64),
+        "s_vv": svv,
+        "contrast": grey[:, 0],
+        "grey_left": grey[:, 1],
+        "grey_right": grey[:, 2],
+        "grey_left_near": grey[:, 3],
+        "grey_right_near": grey[:, 4],
+    }
