@@ -138,7 +138,7 @@ class StereoMatches:
             "opposite_polarity": ((m,), np.bool_),
         }
         for name, (shape, dtype) in shapes.items():
-            arr = np.asarray(getattr(self, name), dtype=dtype)
+            arr: np.ndarray = np.asarray(getattr(self, name), dtype=dtype)
             if arr.shape != shape:
                 raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
             object.__setattr__(self, name, _readonly(arr))
@@ -345,6 +345,13 @@ def _check_inputs(
     return left, right, rig  # type: ignore[return-value]
 
 
+def _near(segments: ImageSegments) -> tuple[FloatArray, FloatArray]:
+    """The "near" grey levels left and right of the segments (``ImageSegments`` fills them)."""
+    left, right = segments.grey_left_near, segments.grey_right_near
+    assert left is not None and right is not None  # set by ImageSegments.__post_init__
+    return left, right
+
+
 def _candidates(
     left: ImageSegments, right: ImageSegments, rig: StereoRig, options: MatchOptions
 ) -> Candidates:
@@ -374,8 +381,9 @@ def _candidates(
     # photometric agreement of the four side samples: far left, far right, near left, near right
     far_l = np.abs(left.grey_left[:, None] - right.grey_left) <= o.max_grey_diff
     far_r = np.abs(left.grey_right[:, None] - right.grey_right) <= o.max_grey_diff
-    near_l = np.abs(left.grey_left_near[:, None] - right.grey_left_near) <= o.max_near_grey_diff
-    near_r = np.abs(left.grey_right_near[:, None] - right.grey_right_near) <= o.max_near_grey_diff
+    (near_left_l, near_right_l), (near_left_r, near_right_r) = _near(left), _near(right)
+    near_l = np.abs(near_left_l[:, None] - near_left_r) <= o.max_near_grey_diff
+    near_r = np.abs(near_right_l[:, None] - near_right_r) <= o.max_near_grey_diff
     ok &= np.where(opposite, (far_l & near_l) | (far_r & near_r), (far_l | far_r) & near_l & near_r)
     # disparity along the pair: d(v) = u_left(v) - u_right(v) = (a_l - a_r) + (s_l - s_r) v, with
     # u(v) = a + s v the fitted lines; in the rig's range (widened by agree_px) at both ends

@@ -166,7 +166,7 @@ class ImageSegments:
         if self.grey_right_near is None:
             object.__setattr__(self, "grey_right_near", self.grey_right)
         for name, dtype in _FIELDS:
-            arr = np.asarray(getattr(self, name), dtype=dtype)
+            arr: np.ndarray = np.asarray(getattr(self, name), dtype=dtype)
             if arr.shape != (n,):
                 raise ValueError(f"{name} must have shape ({n},), got {arr.shape}")
             object.__setattr__(self, name, _readonly(arr))
@@ -201,14 +201,15 @@ class ImageSegments:
         cls, image_shape: tuple[int, int] = (0, 0), *, horizontal: FloatArray | None = None
     ) -> ImageSegments:
         """No segments (and the given near-horizontal lines, if any)."""
-        arrays = {name: np.zeros(0, dtype=dtype) for name, dtype in _FIELDS}
+        arrays: dict[str, Any] = {name: np.zeros(0, dtype=dtype) for name, dtype in _FIELDS}
         hor = np.zeros((0, 2, 2)) if horizontal is None else horizontal
         return cls(endpoints=np.zeros((0, 2, 2)), image_shape=image_shape, horizontal=hor, **arrays)
 
     @property
     def length(self) -> FloatArray:
         """(n,) length of each segment, px."""
-        return np.linalg.norm(self.endpoints[:, 1] - self.endpoints[:, 0], axis=-1)
+        length: FloatArray = np.linalg.norm(self.endpoints[:, 1] - self.endpoints[:, 0], axis=-1)
+        return length
 
     @property
     def angle_rad(self) -> FloatArray:
