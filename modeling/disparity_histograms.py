@@ -130,7 +130,7 @@ def region_histograms(
 def decide_matches_reference(
     hist: FloatArray, cand: Candidates, inputs: HistogramInputs, rule: PeakRule
 ) -> Decision:
-    """The matching rule: which candidates the region histograms keep (section 3.1, Eq. 1).
+    """The matching rule: which candidates the region histograms keep (section 3.1; Eq. 1 of 3.3).
 
     1. The prominent peaks of each left segment's region histogram: the local maxima within
        ``half`` bins (the first bin of a flat top) of at least ``rel_peak`` times the row's

@@ -60,8 +60,8 @@ from numpy.typing import NDArray
 from modeling._compiled.match import Candidates, Decision, PeakRule, decide
 from modeling.disparity_histograms import Splat, histogram_inputs, region_histograms
 from modeling.rig import StereoRig
-from modeling.segments import ImageSegments, _options_signature
-from modeling.validation import FloatArray, boolean, positive, with_overrides
+from modeling.segments import ImageSegments, _list_options_in_signature
+from modeling.validation import FloatArray, positive, with_overrides
 
 __all__ = [
     "MatchCandidates",
@@ -230,7 +230,7 @@ class MatchCandidates:
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class MatchOptions:
-    """The options of :func:`match_segments` and :func:`match_candidates` (section 3.1, Eq. 1).
+    """The options of :func:`match_segments` and :func:`match_candidates` (sections 3.1, 3.3).
 
     Attributes:
         min_overlap_frac: Smallest vertical overlap of a pair, as a fraction of the shorter row
@@ -302,8 +302,6 @@ class MatchOptions:
                 f"region_sigma_px must be two positive numbers, got {self.region_sigma_px!r}"
             )
         object.__setattr__(self, "region_sigma_px", (su, sv))
-        boolean(bool(self.allow_opposite), "allow_opposite")
-        boolean(bool(self.unique_right), "unique_right")
 
     def splat(self) -> Splat:
         """How a candidate is spread into its segment's histogram (1 px bins)."""
@@ -337,12 +335,13 @@ def _check_inputs(
     Raises:
         ValueError: naming ``left``, ``right`` or ``rig``.
     """
-    for value, name in ((left, "left"), (right, "right")):
-        if not isinstance(value, ImageSegments):
-            raise ValueError(f"{name} must be an ImageSegments, got {type(value).__name__}")
+    if not isinstance(left, ImageSegments):
+        raise ValueError(f"left must be an ImageSegments, got {type(left).__name__}")
+    if not isinstance(right, ImageSegments):
+        raise ValueError(f"right must be an ImageSegments, got {type(right).__name__}")
     if not isinstance(rig, StereoRig):
         raise ValueError(f"rig must be a StereoRig, got {type(rig).__name__}")
-    return left, right, rig  # type: ignore[return-value]
+    return left, right, rig
 
 
 def _near(segments: ImageSegments) -> tuple[FloatArray, FloatArray]:
@@ -524,6 +523,5 @@ def _stereo_matches(
     )
 
 
-# the flat keywords keep their place in the signatures that modeling.pipeline reads
-match_segments.__signature__ = _options_signature(match_segments, MatchOptions)  # type: ignore[attr-defined]
-match_candidates.__signature__ = _options_signature(match_candidates, MatchOptions)  # type: ignore[attr-defined]
+_list_options_in_signature(match_segments, MatchOptions)
+_list_options_in_signature(match_candidates, MatchOptions)

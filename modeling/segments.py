@@ -370,23 +370,23 @@ def extract_segment_pair(
     return segs_l, segs_r
 
 
-def _options_signature(fn: Callable[..., Any], cls: type[Any]) -> inspect.Signature:
-    """``fn``'s signature with the fields of the options dataclass ``cls`` (and their defaults)
-    as keyword-only parameters in place of ``**overrides``: the flat keywords ``fn`` accepts, as
-    :func:`modeling.validation.keyword_options` reads them (``modeling.pipeline`` routes by them).
-    """
-    params = [p for p in inspect.signature(fn).parameters.values() if p.kind is not p.VAR_KEYWORD]
+def _list_options_in_signature(fn: Callable[..., Any], cls: type[Any]) -> None:
+    """Give ``fn`` the signature it has with the fields of the options dataclass ``cls`` (and
+    their defaults) as keyword-only parameters in place of ``**overrides``: the flat keywords it
+    accepts, as :func:`modeling.validation.keyword_options` reads them (``modeling.pipeline``
+    routes the flat keywords of its callers by them) and as ``help(fn)`` shows them."""
+    sig = inspect.signature(fn)
+    params = [p for p in sig.parameters.values() if p.kind is not p.VAR_KEYWORD]
     defaults = cls()
     params += [
         inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=getattr(defaults, f.name))
         for f in dataclasses.fields(cls)
     ]
-    return inspect.signature(fn).replace(parameters=params)
+    fn.__dict__["__signature__"] = sig.replace(parameters=params)
 
 
-# the flat keywords keep their place in the signatures that modeling.pipeline reads
-extract_segments.__signature__ = _options_signature(extract_segments, SegmentOptions)  # type: ignore[attr-defined]
-extract_segment_pair.__signature__ = _options_signature(extract_segment_pair, SegmentOptions)  # type: ignore[attr-defined]
+_list_options_in_signature(extract_segments, SegmentOptions)
+_list_options_in_signature(extract_segment_pair, SegmentOptions)
 
 
 # ------------------------------------------------------------------ detection and fitting

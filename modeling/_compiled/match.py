@@ -1,4 +1,4 @@
-"""The compiled loop of segment matching (:mod:`modeling.matching`, section 3.1, Eq. 1): the
+"""The compiled loop of segment matching (:mod:`modeling.matching`, sections 3.1, 3.3): the
 decision from the region histograms (peaks, agreement, uniqueness, Eq. 1).
 
 :func:`decide` computes every value with the same floating-point operations, in the same order,
@@ -80,7 +80,7 @@ def decide(hist: np.ndarray, cand: Candidates, inputs: HistogramInputs, rule: Pe
         The kept candidates sorted by left segment then decreasing peak height, the height of the
         peak each agrees with, their probabilities (Eq. 1) and their peaks' disparities, px;
         empty when nothing is kept. Reference:
-        :func:`modeling.disparity_histograms.decide_matches_reference` (section 3.1, Eq. 1).
+        :func:`modeling.disparity_histograms.decide_matches_reference` (section 3.1; Eq. 1 of 3.3).
     """
     li, rj = cand.li, cand.rj
     d_mid, weight, cand_row, d_base = inputs.d_mid, inputs.weight, inputs.cand_row, inputs.d_base

@@ -1,4 +1,4 @@
-"""The compiled decision of the matching equals its readable reference (section 3.1, Eq. 1).
+"""The compiled decision of the matching equals its readable reference (section 3.1; Eq. 1 of 3.3).
 
 ``modeling._compiled.match.decide`` against ``modeling.disparity_histograms.
 decide_matches_reference``: exactly equal on the region histograms of seeded rendered pairs (four
