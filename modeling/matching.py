@@ -22,19 +22,22 @@ Candidates (left segment ``i``, right segment ``j``) must satisfy
 
 ``match_candidates`` returns exactly these pairs (what the histograms then decide among).
 
-Local disparity histogram [Miura ICRA-94, ref. 9]. Each candidate puts its mid disparity into the
-histogram of its left segment (1 px bins), weighted by the length of the overlapping part (times
-``opposite_weight`` for an opposite-polarity pair) and spread as a Gaussian of standard deviation
-``smooth_px`` (the smoothing of the histogram). The histogram of the *region around* left segment
-``i`` is the sum of those of all left segments, each weighted by a Gaussian of the image distance
-between segment midpoints (``region_sigma_px``; ``self_weight`` for ``i`` itself). Its prominent
-peaks are the local maxima (within ``min_peak_sep_px``) of at least ``rel_peak`` times the highest
-one, located to a fraction of a bin by a parabola.
+Local disparity histogram [Miura ICRA-94, ref. 9] (:mod:`modeling.disparity_histograms`). Each
+candidate puts its mid disparity into the histogram of its left segment (1 px bins), weighted by
+the length of the overlapping part (times ``opposite_weight`` for an opposite-polarity pair) and
+spread as a Gaussian of standard deviation ``smooth_px`` (the smoothing of the histogram). The
+histogram of the *region around* left segment ``i`` is the sum of those of all left segments, each
+weighted by a Gaussian of the image distance between segment midpoints (``region_sigma_px``;
+``self_weight`` for ``i`` itself). Its prominent peaks are the local maxima (within
+``min_peak_sep_px``) of at least ``rel_peak`` times the highest one, located to a fraction of a
+bin by a parabola.
 
-Decision. For every prominent peak ``k`` of segment ``i``'s region, the candidate of ``i`` whose
-disparity is closest to the peak (within ``agree_px``) is kept. If one peak is matched, the match is
-certain (probability 1); if several are, each kept candidate gets ``a_k / sum_j a_j`` (Eq. 1), where
-``a_k`` is the height of its peak. Left segments with no agreeing candidate are dropped.
+Decision (:func:`modeling.disparity_histograms.decide_matches_reference`, the readable rule;
+:func:`modeling._compiled.match.decide` runs it). For every prominent peak ``k`` of segment
+``i``'s region, the candidate of ``i`` whose disparity is closest to the peak (within
+``agree_px``) is kept. If one peak is matched, the match is certain (probability 1); if several
+are, each kept candidate gets ``a_k / sum_j a_j`` (Eq. 1), where ``a_k`` is the height of its
+peak. Left segments with no agreeing candidate are dropped.
 
 Uniqueness (``unique_right``). One right segment is the image of one 3D edge, so two left segments
 cannot both be right about it at different disparities. A *certain* claim (the left segment's only
@@ -54,16 +57,23 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._compiled.match import candidate_grid, decide, histogram_inputs, histograms, match_rows
-from modeling.validation import FloatArray, positive
+from modeling._compiled.match import Candidates, Decision, PeakRule, decide
+from modeling.disparity_histograms import Splat, histogram_inputs, region_histograms
 from modeling.rig import StereoRig
-from modeling.segments import ImageSegments
+from modeling.segments import ImageSegments, _list_options_in_signature
+from modeling.validation import FloatArray, positive, with_overrides
 
-__all__ = ["MatchCandidates", "StereoMatches", "match_candidates", "match_segments"]
+__all__ = [
+    "MatchCandidates",
+    "MatchOptions",
+    "StereoMatches",
+    "match_candidates",
+    "match_segments",
+]
 
 IntArray = NDArray[np.int64]
 
-_BIN_PX = 1.0  # disparity histogram bin, px (peaks are refined to sub-bin by a parabola)
+BIN_PX = 1.0  # disparity histogram bin, px (peaks are refined to sub-bin by a parabola)
 
 
 def _readonly(arr: np.ndarray) -> np.ndarray:
@@ -128,7 +138,7 @@ class StereoMatches:
             "opposite_polarity": ((m,), np.bool_),
         }
         for name, (shape, dtype) in shapes.items():
-            arr = np.asarray(getattr(self, name), dtype=dtype)
+            arr: np.ndarray = np.asarray(getattr(self, name), dtype=dtype)
             if arr.shape != shape:
                 raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
             object.__setattr__(self, name, _readonly(arr))
@@ -218,210 +228,13 @@ class MatchCandidates:
         return int(self.left_index.shape[0])
 
 
-def _check_segments(value: object, name: str) -> ImageSegments:
-    if not isinstance(value, ImageSegments):
-        raise ValueError(f"{name} must be an ImageSegments, got {type(value).__name__}")
-    return value
+@dataclass(frozen=True, slots=True, kw_only=True)
+class MatchOptions:
+    """The options of :func:`match_segments` and :func:`match_candidates` (sections 3.1, 3.3).
 
-
-def _check_rig(rig: object) -> StereoRig:
-    if not isinstance(rig, StereoRig):
-        raise ValueError(f"rig must be a StereoRig, got {type(rig).__name__}")
-    return rig
-
-
-def _check_inputs(
-    left: object,
-    right: object,
-    rig: object,
-    min_overlap_frac: float,
-    min_overlap_px: float,
-    max_angle_diff_deg: float,
-    max_grey_diff: float,
-    max_near_grey_diff: float,
-    agree_px: float,
-) -> tuple[ImageSegments, ImageSegments, StereoRig]:
-    """The checks both public functions make: the segments, the rig and the constraint options."""
-    checked = (_check_segments(left, "left"), _check_segments(right, "right"), _check_rig(rig))
-    if not (0.0 <= min_overlap_frac <= 1.0):
-        raise ValueError(f"min_overlap_frac must be in [0, 1], got {min_overlap_frac!r}")
-    positive(min_overlap_px, "min_overlap_px", allow_zero=True)
-    positive(max_angle_diff_deg, "max_angle_diff_deg")
-    positive(agree_px, "agree_px")
-    for name, value in (
-        ("max_grey_diff", max_grey_diff),
-        ("max_near_grey_diff", max_near_grey_diff),
-    ):
-        if not (value >= 0):  # inf allowed: disables the check
-            raise ValueError(f"{name} must be non-negative, got {value!r}")
-    return checked
-
-
-@dataclass(frozen=True, slots=True)
-class _Candidates:
-    """Candidate pairs as parallel arrays (``k >= 1`` rows), sorted by left then right index."""
-
-    li: IntArray
-    rj: IntArray
-    rows: FloatArray  # (k, 2) first and last row of the overlap, px
-    ov: FloatArray  # overlap, rows
-    disp: FloatArray  # (k, 2) disparity at those rows, px
-    opposite: NDArray[np.bool_]
-
-
-def _candidates(
-    left: ImageSegments,
-    right: ImageSegments,
-    rig: StereoRig,
-    *,
-    min_overlap_frac: float,
-    min_overlap_px: float,
-    max_angle_diff_deg: float,
-    allow_opposite: bool,
-    max_grey_diff: float,
-    max_near_grey_diff: float,
-    margin_px: float,
-) -> _Candidates | None:
-    """Pairs passing the epipolar, direction, photometric and disparity-range constraints, or
-    ``None`` when none does (see the module docstring): one compiled pass over the (nL, nR) grid
-    (``_match_kernel.candidate_grid``)."""
-    if len(left) == 0 or len(right) == 0:
-        return None
-    li, rj, rows, ov, disp, opposite = candidate_grid(
-        *_columns(left),
-        *_columns(right),
-        float(min_overlap_px),
-        float(min_overlap_frac),
-        math.radians(max_angle_diff_deg),
-        bool(allow_opposite),
-        float(max_grey_diff),
-        float(max_near_grey_diff),
-        max(rig.min_disparity_px - margin_px, 1e-3),
-        rig.max_disparity_px + margin_px,
-    )
-    if li.size == 0:
-        return None
-    return _Candidates(li=li, rj=rj, rows=rows, ov=ov, disp=disp, opposite=opposite)
-
-
-def _columns(segments: ImageSegments) -> tuple[Any, ...]:
-    """The arrays of ``segments`` that ``candidate_grid`` reads, in its argument order."""
-    s = segments
-    return (
-        s.endpoints,
-        s.angle_rad,
-        s.polarity,
-        (s.grey_left, s.grey_right, s.grey_left_near, s.grey_right_near),
-        (s.u_center, s.slope, s.v_center),
-    )
-
-
-def match_candidates(
-    left: ImageSegments,
-    right: ImageSegments,
-    rig: StereoRig,
-    *,
-    min_overlap_frac: float = 0.5,
-    min_overlap_px: float = 8.0,
-    max_angle_diff_deg: float = 8.0,
-    allow_opposite: bool = True,
-    max_grey_diff: float = 15.0,
-    max_near_grey_diff: float = 10.0,
-    agree_px: float = 2.5,
-) -> MatchCandidates:
-    """The candidate pairs ``match_segments`` decides among (constraints only, no histogram).
-
-    Args:
-        left: Segments of the left (reference) image.
-        right: Segments of the right image.
-        rig: The stereo rig (disparity range).
-        min_overlap_frac: As in ``match_segments``.
-        min_overlap_px: As in ``match_segments``.
-        max_angle_diff_deg: As in ``match_segments``.
-        allow_opposite: As in ``match_segments``.
-        max_grey_diff: As in ``match_segments``.
-        max_near_grey_diff: As in ``match_segments``.
-        agree_px: As in ``match_segments`` (it widens the disparity range).
-
-    Returns:
-        Every pair passing the epipolar, direction, photometric and disparity-range constraints,
-        with the same defaults as ``match_segments``.
-
-    Raises:
-        ValueError: ``left``/``right`` are not ``ImageSegments``, ``rig`` is not a ``StereoRig``,
-            or an option is out of range.
-    """
-    left, right, rig = _check_inputs(
-        left,
-        right,
-        rig,
-        min_overlap_frac,
-        min_overlap_px,
-        max_angle_diff_deg,
-        max_grey_diff,
-        max_near_grey_diff,
-        agree_px,
-    )
-    cand = _candidates(
-        left,
-        right,
-        rig,
-        min_overlap_frac=min_overlap_frac,
-        min_overlap_px=min_overlap_px,
-        max_angle_diff_deg=max_angle_diff_deg,
-        allow_opposite=allow_opposite,
-        max_grey_diff=max_grey_diff,
-        max_near_grey_diff=max_near_grey_diff,
-        margin_px=agree_px,
-    )
-    if cand is None:
-        return MatchCandidates(
-            left_index=np.zeros(0, dtype=np.int64),
-            right_index=np.zeros(0, dtype=np.int64),
-            rows_px=np.zeros((0, 2)),
-            disparity_px=np.zeros((0, 2)),
-            opposite_polarity=np.zeros(0, dtype=bool),
-            overlap_px=np.zeros(0),
-        )
-    return MatchCandidates(
-        left_index=cand.li,
-        right_index=cand.rj,
-        rows_px=cand.rows,
-        disparity_px=cand.disp,
-        opposite_polarity=cand.opposite,
-        overlap_px=cand.ov,
-    )
-
-
-def match_segments(
-    left: ImageSegments,
-    right: ImageSegments,
-    rig: StereoRig,
-    *,
-    min_overlap_frac: float = 0.5,
-    min_overlap_px: float = 8.0,
-    max_angle_diff_deg: float = 8.0,
-    allow_opposite: bool = True,
-    opposite_weight: float = 0.5,
-    region_sigma_px: tuple[float, float] = (16.0, 32.0),
-    smooth_px: float = 2.5,
-    rel_peak: float = 0.5,
-    min_peak_sep_px: float = 2.5,
-    agree_px: float = 2.5,
-    sigma_v_px: float = 1.0,
-    max_grey_diff: float = 15.0,
-    max_near_grey_diff: float = 10.0,
-    self_weight: float = 1.0,
-    unique_right: bool = True,
-) -> StereoMatches:
-    """Match left and right segments of a rectified pair (section 3.1, Eq. 1 of section 3.3).
-
-    Args:
-        left: Segments of the left (reference) image.
-        right: Segments of the right image.
-        rig: The stereo rig (disparity range).
+    Attributes:
         min_overlap_frac: Smallest vertical overlap of a pair, as a fraction of the shorter row
-            range of the two.
+            range of the two, in [0, 1].
         min_overlap_px: Smallest vertical overlap, rows.
         max_angle_diff_deg: Largest difference of the two segments' angles, degrees.
         allow_opposite: Accept pairs of opposite contrast polarity (occluding edges).
@@ -430,9 +243,11 @@ def match_segments(
         region_sigma_px: ``(sigma_u, sigma_v)`` of the Gaussian that weights neighbouring left
             segments into a segment's local histogram, px.
         smooth_px: Standard deviation of the histogram smoothing along disparity, px.
-        rel_peak: A peak is prominent if at least this fraction of the region's highest peak.
+        rel_peak: A peak is prominent if at least this fraction of the region's highest peak,
+            in (0, 1].
         min_peak_sep_px: Smallest distance between two prominent peaks, px.
-        agree_px: A candidate agrees with a peak within this disparity difference, px.
+        agree_px: A candidate agrees with a peak within this disparity difference, px (it also
+            widens the rig's disparity range for the candidates).
         sigma_v_px: Standard deviation of where an overlapping part ends along the edge, px.
         max_grey_diff: Largest difference of the "far" grey level (3 px from the edge) of a side
             of the two segments for that side to agree, grey levels (``inf``: no check).
@@ -443,134 +258,270 @@ def match_segments(
         unique_right: Drop certain claims on a right segment that another left segment keeps at
             another disparity with a higher peak (see the module docstring).
 
+    Raises:
+        ValueError: naming the option that is out of range.
+    """
+
+    min_overlap_frac: float = 0.5
+    min_overlap_px: float = 8.0
+    max_angle_diff_deg: float = 8.0
+    allow_opposite: bool = True
+    opposite_weight: float = 0.5
+    region_sigma_px: tuple[float, float] = (16.0, 32.0)
+    smooth_px: float = 2.5
+    rel_peak: float = 0.5
+    min_peak_sep_px: float = 2.5
+    agree_px: float = 2.5
+    sigma_v_px: float = 1.0
+    max_grey_diff: float = 15.0
+    max_near_grey_diff: float = 10.0
+    self_weight: float = 1.0
+    unique_right: bool = True
+
+    def __post_init__(self) -> None:
+        if not (0.0 <= self.min_overlap_frac <= 1.0):
+            raise ValueError(f"min_overlap_frac must be in [0, 1], got {self.min_overlap_frac!r}")
+        positive(self.min_overlap_px, "min_overlap_px", allow_zero=True)
+        positive(self.max_angle_diff_deg, "max_angle_diff_deg")
+        positive(self.agree_px, "agree_px")
+        for name in ("max_grey_diff", "max_near_grey_diff"):
+            value = getattr(self, name)
+            if not (value >= 0):  # inf allowed: disables the check
+                raise ValueError(f"{name} must be non-negative, got {value!r}")
+        if not (0.0 <= self.opposite_weight <= 1.0):
+            raise ValueError(f"opposite_weight must be in [0, 1], got {self.opposite_weight!r}")
+        if not (0.0 < self.rel_peak <= 1.0):
+            raise ValueError(f"rel_peak must be in (0, 1], got {self.rel_peak!r}")
+        positive(self.self_weight, "self_weight", allow_zero=True)
+        positive(self.smooth_px, "smooth_px")
+        positive(self.min_peak_sep_px, "min_peak_sep_px")
+        positive(self.sigma_v_px, "sigma_v_px")
+        su, sv = (float(x) for x in self.region_sigma_px)
+        if not (math.isfinite(su) and math.isfinite(sv) and su > 0 and sv > 0):
+            raise ValueError(
+                f"region_sigma_px must be two positive numbers, got {self.region_sigma_px!r}"
+            )
+        object.__setattr__(self, "region_sigma_px", (su, sv))
+
+    def splat(self) -> Splat:
+        """How a candidate is spread into its segment's histogram (1 px bins)."""
+        sig_bins = self.smooth_px / BIN_PX
+        return Splat(
+            opposite_weight=float(self.opposite_weight),
+            sigma_bins=float(sig_bins),
+            radius=max(1, math.ceil(3.0 * sig_bins)),
+            bin_px=BIN_PX,
+            norm=math.sqrt(2.0 * math.pi) * sig_bins,
+        )
+
+    def peak_rule(self, n_bins: int, n_left: int) -> PeakRule:
+        """The decision's parameters for histograms of ``n_bins`` bins and ``n_left`` segments."""
+        return PeakRule(
+            bin_px=BIN_PX,
+            half=math.ceil(self.min_peak_sep_px / BIN_PX),
+            rel_peak=float(self.rel_peak),
+            span=n_bins * BIN_PX + 4.0 * self.agree_px,
+            agree_px=float(self.agree_px),
+            unique_right=bool(self.unique_right),
+            n_left=n_left,
+        )
+
+
+def _check_inputs(
+    left: object, right: object, rig: object
+) -> tuple[ImageSegments, ImageSegments, StereoRig]:
+    """``(left, right, rig)`` checked to be two ``ImageSegments`` and a ``StereoRig``.
+
+    Raises:
+        ValueError: naming ``left``, ``right`` or ``rig``.
+    """
+    if not isinstance(left, ImageSegments):
+        raise ValueError(f"left must be an ImageSegments, got {type(left).__name__}")
+    if not isinstance(right, ImageSegments):
+        raise ValueError(f"right must be an ImageSegments, got {type(right).__name__}")
+    if not isinstance(rig, StereoRig):
+        raise ValueError(f"rig must be a StereoRig, got {type(rig).__name__}")
+    return left, right, rig
+
+
+def _near(segments: ImageSegments) -> tuple[FloatArray, FloatArray]:
+    """The "near" grey levels left and right of the segments (``ImageSegments`` fills them)."""
+    left, right = segments.grey_left_near, segments.grey_right_near
+    assert left is not None and right is not None  # set by ImageSegments.__post_init__
+    return left, right
+
+
+def _candidates(
+    left: ImageSegments, right: ImageSegments, rig: StereoRig, options: MatchOptions
+) -> Candidates:
+    """The (left, right) pairs that pass the matching constraints (section 3.1; the module
+    docstring), sorted by left, then right index (``k`` rows, possibly zero).
+
+    Every constraint is evaluated on the whole (nL, nR) grid of pairs, and the pairs are gathered
+    at the end.
+    """
+    o = options
+    v0L, v1L = left.endpoints[:, 0, 1], left.endpoints[:, 1, 1]
+    v0R, v1R = right.endpoints[:, 0, 1], right.endpoints[:, 1, 1]
+    n_right = v0R.shape[0]
+    rows = np.empty((v0L.shape[0], n_right, 2))  # first and last row of the overlap, px
+    lo = np.maximum(v0L[:, None], v0R, out=rows[..., 0])
+    hi = np.minimum(v1L[:, None], v1R, out=rows[..., 1])
+    # epipolar: the row ranges overlap enough
+    ov = hi - lo
+    ok = ov >= np.maximum(
+        o.min_overlap_px, o.min_overlap_frac * np.minimum((v1L - v0L)[:, None], v1R - v0R)
+    )
+    # direction: similar angles, the same polarity or (allow_opposite) the opposite one
+    ok &= np.abs(left.angle_rad[:, None] - right.angle_rad) <= math.radians(o.max_angle_diff_deg)
+    opposite = left.polarity[:, None] != right.polarity
+    if not o.allow_opposite:
+        ok &= ~opposite
+    # photometric agreement of the four side samples: far left, far right, near left, near right
+    far_l = np.abs(left.grey_left[:, None] - right.grey_left) <= o.max_grey_diff
+    far_r = np.abs(left.grey_right[:, None] - right.grey_right) <= o.max_grey_diff
+    (near_left_l, near_right_l), (near_left_r, near_right_r) = _near(left), _near(right)
+    near_l = np.abs(near_left_l[:, None] - near_left_r) <= o.max_near_grey_diff
+    near_r = np.abs(near_right_l[:, None] - near_right_r) <= o.max_near_grey_diff
+    ok &= np.where(opposite, (far_l & near_l) | (far_r & near_r), (far_l | far_r) & near_l & near_r)
+    # disparity along the pair: d(v) = u_left(v) - u_right(v) = (a_l - a_r) + (s_l - s_r) v, with
+    # u(v) = a + s v the fitted lines; in the rig's range (widened by agree_px) at both ends
+    a_l = left.u_center - left.slope * left.v_center
+    a_r = right.u_center - right.slope * right.v_center
+    d_a = a_l[:, None] - a_r
+    d_s = left.slope[:, None] - right.slope
+    disp = d_a[..., None] + d_s[..., None] * rows
+    d_lo, d_hi = disp[..., 0], disp[..., 1]
+    dmin = max(rig.min_disparity_px - o.agree_px, 1e-3)
+    dmax = rig.max_disparity_px + o.agree_px
+    ok &= (np.minimum(d_lo, d_hi) >= dmin) & (np.maximum(d_lo, d_hi) <= dmax)
+    flat = np.flatnonzero(ok)  # row-major: sorted by left, then right index
+    li, rj = np.divmod(flat, n_right)
+    return Candidates(
+        li=li,
+        rj=rj,
+        rows=rows.reshape(-1, 2)[flat],
+        overlap=ov.ravel()[flat],
+        disparity=disp.reshape(-1, 2)[flat],
+        opposite=opposite.ravel()[flat],
+    )
+
+
+def match_candidates(
+    left: ImageSegments,
+    right: ImageSegments,
+    rig: StereoRig,
+    options: MatchOptions | None = None,
+    **overrides: Any,
+) -> MatchCandidates:
+    """The candidate pairs ``match_segments`` decides among (constraints only, no histogram).
+
+    Args:
+        left: Segments of the left (reference) image.
+        right: Segments of the right image.
+        rig: The stereo rig (disparity range).
+        options: The options (defaults: ``MatchOptions()``); only the constraints and
+            ``agree_px`` (it widens the disparity range) matter here.
+        **overrides: Fields of ``MatchOptions`` to replace.
+
+    Returns:
+        Every pair passing the epipolar, direction, photometric and disparity-range constraints.
+
+    Raises:
+        ValueError: ``left``/``right`` are not ``ImageSegments``, ``rig`` is not a ``StereoRig``,
+            or an option is unknown or out of range.
+    """
+    left, right, rig = _check_inputs(left, right, rig)
+    opts = with_overrides(options, MatchOptions, overrides)
+    cand = _candidates(left, right, rig, opts)
+    return MatchCandidates(
+        left_index=cand.li,
+        right_index=cand.rj,
+        rows_px=cand.rows,
+        disparity_px=cand.disparity,
+        opposite_polarity=cand.opposite,
+        overlap_px=cand.overlap,
+    )
+
+
+def match_segments(
+    left: ImageSegments,
+    right: ImageSegments,
+    rig: StereoRig,
+    options: MatchOptions | None = None,
+    **overrides: Any,
+) -> StereoMatches:
+    """Match left and right segments of a rectified pair (section 3.1, Eq. 1 of section 3.3).
+
+    The paper's steps: the candidates (epipolar overlap, direction, photometry, disparity range),
+    the local disparity histograms of the regions and the decision by their prominent peaks with
+    Eq. 1 (:mod:`modeling.disparity_histograms`; the decision runs as a compiled loop equal to
+    ``decide_matches_reference``), then the kept pairs' endpoints and variances.
+
+    Args:
+        left: Segments of the left (reference) image.
+        right: Segments of the right image.
+        rig: The stereo rig (disparity range).
+        options: The options (defaults: ``MatchOptions()``).
+        **overrides: Fields of ``MatchOptions`` to replace, e.g. ``rel_peak=0.6``.
+
     Returns:
         The kept pairs with their probabilities; empty if nothing matches.
 
     Raises:
         ValueError: ``left``/``right`` are not ``ImageSegments``, ``rig`` is not a ``StereoRig``,
-            or an option is out of range.
+            or an option is unknown or out of range.
     """
-    left, right, rig = _check_inputs(
-        left,
-        right,
-        rig,
-        min_overlap_frac,
-        min_overlap_px,
-        max_angle_diff_deg,
-        max_grey_diff,
-        max_near_grey_diff,
-        agree_px,
-    )
-    if not (0.0 <= opposite_weight <= 1.0):
-        raise ValueError(f"opposite_weight must be in [0, 1], got {opposite_weight!r}")
-    if not (0.0 < rel_peak <= 1.0):
-        raise ValueError(f"rel_peak must be in (0, 1], got {rel_peak!r}")
-    positive(self_weight, "self_weight", allow_zero=True)
-    positive(smooth_px, "smooth_px")
-    positive(min_peak_sep_px, "min_peak_sep_px")
-    positive(sigma_v_px, "sigma_v_px")
-    su, sv = (float(x) for x in region_sigma_px)
-    if not (math.isfinite(su) and math.isfinite(sv) and su > 0 and sv > 0):
-        raise ValueError(f"region_sigma_px must be two positive numbers, got {region_sigma_px!r}")
-    nL = len(left)
-
-    # ---------------------------------------------------------------- candidates
-    cand = _candidates(
-        left,
-        right,
-        rig,
-        min_overlap_frac=min_overlap_frac,
-        min_overlap_px=min_overlap_px,
-        max_angle_diff_deg=max_angle_diff_deg,
-        allow_opposite=allow_opposite,
-        max_grey_diff=max_grey_diff,
-        max_near_grey_diff=max_near_grey_diff,
-        margin_px=agree_px,
-    )
-    if cand is None:
+    left, right, rig = _check_inputs(left, right, rig)
+    opts = with_overrides(options, MatchOptions, overrides)
+    cand = _candidates(left, right, rig, opts)
+    n_cand = int(cand.li.size)
+    if n_cand == 0:
         return StereoMatches.empty()
-    li = cand.li
-    n_cand = int(li.size)
-
-    # ---------------------------------------------------------------- local histograms
-    # each candidate is splatted into its left segment's histogram as a Gaussian of standard
-    # deviation smooth_px (evaluated at the bin centres, unit area), over bins that cover the
-    # candidates' disparities with room for the kernel on both sides; weighted by the length of
-    # its overlapping part (times opposite_weight for opposite polarities)
-    sig_bins = smooth_px / _BIN_PX
-    radius = max(1, math.ceil(3.0 * sig_bins))
-    d_mid, weight, scale, d_base, nbins, bins, exponent, r, rows = histogram_inputs(
-        cand.disp,
-        cand.ov,
-        cand.opposite,
-        li,
-        left.slope,
-        float(opposite_weight),
-        float(sig_bins),
-        radius,
-        _BIN_PX,
-        math.sqrt(2.0 * math.pi) * sig_bins,
-    )
-    nrow = rows.size
-    ends = left.endpoints[rows]
-    C, region_exponent = histograms(
-        np.exp(exponent), scale, bins, r, nrow, nbins, 0.5 * (ends[:, 0] + ends[:, 1]), su, sv
-    )
-    Wreg = np.exp(region_exponent)
-    Wreg.flat[:: nrow + 1] = self_weight
-    Hist = Wreg @ C
-
-    # ---------------------------------------------------------------- decision
-    # the prominent peaks of each region (local maxima within +-min_peak_sep_px, the first bin
-    # of a flat top, sub-bin by a parabola), each peak's closest candidate within agree_px (the
-    # nearest peak of the candidate's row; ties: the longer overlap), uniqueness, Eq. 1: one
-    # compiled pass (``_match_kernel.decide``)
-    sel, a_k, prob, peak_disp = decide(
-        Hist,
-        r,
-        li,
-        cand.rj,
-        d_mid,
-        weight,
-        float(d_base),
-        _BIN_PX,
-        math.ceil(min_peak_sep_px / _BIN_PX),
-        float(rel_peak),
-        nbins * _BIN_PX + 4.0 * agree_px,
-        float(agree_px),
-        bool(unique_right),
-        nL,
-    )
-    if sel.size == 0:
+    inputs = histogram_inputs(cand, left.slope, opts.splat())
+    ends = left.endpoints[inputs.rows]
+    mid = 0.5 * (ends[:, 0] + ends[:, 1])
+    hist = region_histograms(inputs, mid, opts.region_sigma_px, opts.self_weight)
+    kept = decide(hist, cand, inputs, opts.peak_rule(inputs.n_bins, len(left)))
+    if kept.sel.size == 0:
         return StereoMatches.empty(n_cand)
-    lsel, rsel, left_endpoints, disp, disp_var, uvar_l = match_rows(
-        sel,
-        li,
-        cand.rj,
-        cand.rows,
-        cand.disp,
-        (
-            left.u_center,
-            left.slope,
-            left.v_center,
-            left.point_var,
-            left.n_points,
-            left.s_vv,
-            left.bias_var,
-        ),
-        (right.v_center, right.point_var, right.n_points, right.s_vv, right.bias_var),
-    )
+    return _stereo_matches(kept, cand, left, right, opts.sigma_v_px, n_cand)
+
+
+def _stereo_matches(
+    kept: Decision,
+    cand: Candidates,
+    left: ImageSegments,
+    right: ImageSegments,
+    sigma_v_px: float,
+    n_candidates: int,
+) -> StereoMatches:
+    """The kept candidates as ``StereoMatches``: the overlap's ends on the left fitted line, the
+    disparities there and their variances (the images are independent: ``var d = var u_left +
+    var u_right``, section 3.2)."""
+    sel = kept.sel
+    lsel, rsel = cand.li[sel], cand.rj[sel]
+    v_ends = cand.rows[sel]
+    uvar_l = left.u_var_at(lsel[:, None], v_ends)
+    left_endpoints = np.empty((sel.size, 2, 2))
+    left_endpoints[..., 0] = left.u_at(lsel[:, None], v_ends)
+    left_endpoints[..., 1] = v_ends
+    disp = cand.disparity[sel]
     return StereoMatches._trusted(
-        n_cand,
+        n_candidates,
         left_index=lsel,
         right_index=rsel,
-        probability=prob,
+        probability=kept.probability,
         left_endpoints=left_endpoints,
         disparity_px=disp,
-        disparity_var=disp_var,
+        disparity_var=uvar_l + right.u_var_at(rsel[:, None], v_ends),
         u_left_var=uvar_l,
         v_var=np.full(disp.shape, sigma_v_px**2),
-        peak_disparity_px=peak_disp,
-        peak_height=a_k,
+        peak_disparity_px=kept.peak_disparity,
+        peak_height=kept.peak_height,
         opposite_polarity=cand.opposite[sel],
     )
+
+
+_list_options_in_signature(match_segments, MatchOptions)
+_list_options_in_signature(match_candidates, MatchOptions)

@@ -6,10 +6,11 @@ are always reshaped to (N, 4)). Every detected segment is then *re-localised at 
 in each image row it crosses, the sub-pixel column of its edge is found as the parabolic peak of
 the horizontal intensity gradient (central difference, of the segment's own contrast sign) near
 the LSD line, and the horizontal position ``u = u_c + slope * (v - v_c)`` is fitted to those edge
-points by least squares, as in section 3.2 of Miura (ICRA-94). Both parts are compiled loops
-(``modeling._compiled.edge``, Numba): the row-by-row search (a block of ``2 B + 1`` pixels around the
-LSD line serves the gradient, the peak search and the grey levels on both sides) and the fit of
-each segment's line from its sums.
+points by least squares, as in section 3.2 of Miura (ICRA-94). The row-by-row search is a
+compiled loop (``modeling._compiled.edge``, Numba; a block of ``2 B + 1`` pixels around the LSD
+line serves the gradient, the peak search and the grey levels on both sides) whose readable NumPy
+formulation is :func:`modeling.edge_points.edge_sums_reference`; the fit of each segment's line
+from its sums is :func:`_least_squares_lines`.
 
 Uncertainty model (section 3.2, "quantization error"). Each edge point's column is taken as
 ``u_i ~ N(a + b v_i, s^2)`` independently, where ``s^2`` is the residual variance of the fit, but at
@@ -44,20 +45,23 @@ Image frame: pixels, u right, v down, (0, 0) the centre of the top-left pixel.
 
 from __future__ import annotations
 
+import dataclasses
+import inspect
 import math
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple
+from typing import Any
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._compiled.edge import detected_lines, edge_sums, segment_fits
-from modeling.validation import FloatArray, keyword_options, positive
+from modeling._compiled.edge import EdgeSearch, EdgeSums, LinesToFit, edge_sums
 from modeling._compiled.worker import worker
+from modeling.validation import FloatArray, positive, with_overrides
 
-__all__ = ["ImageSegments", "extract_segment_pair", "extract_segments"]
+__all__ = ["ImageSegments", "SegmentOptions", "extract_segment_pair", "extract_segments"]
 
 IntArray = NDArray[np.int64]
 
@@ -162,7 +166,7 @@ class ImageSegments:
         if self.grey_right_near is None:
             object.__setattr__(self, "grey_right_near", self.grey_right)
         for name, dtype in _FIELDS:
-            arr = np.asarray(getattr(self, name), dtype=dtype)
+            arr: np.ndarray = np.asarray(getattr(self, name), dtype=dtype)
             if arr.shape != (n,):
                 raise ValueError(f"{name} must have shape ({n},), got {arr.shape}")
             object.__setattr__(self, name, _readonly(arr))
@@ -197,14 +201,15 @@ class ImageSegments:
         cls, image_shape: tuple[int, int] = (0, 0), *, horizontal: FloatArray | None = None
     ) -> ImageSegments:
         """No segments (and the given near-horizontal lines, if any)."""
-        arrays = {name: np.zeros(0, dtype=dtype) for name, dtype in _FIELDS}
+        arrays: dict[str, Any] = {name: np.zeros(0, dtype=dtype) for name, dtype in _FIELDS}
         hor = np.zeros((0, 2, 2)) if horizontal is None else horizontal
         return cls(endpoints=np.zeros((0, 2, 2)), image_shape=image_shape, horizontal=hor, **arrays)
 
     @property
     def length(self) -> FloatArray:
         """(n,) length of each segment, px."""
-        return np.linalg.norm(self.endpoints[:, 1] - self.endpoints[:, 0], axis=-1)
+        length: FloatArray = np.linalg.norm(self.endpoints[:, 1] - self.endpoints[:, 0], axis=-1)
+        return length
 
     @property
     def angle_rad(self) -> FloatArray:
@@ -236,69 +241,20 @@ def _check_gray(gray: object, name: str) -> NDArray[np.uint8]:
     return np.ascontiguousarray(gray)
 
 
-def _check_options(
-    sigma_px: float,
-    bias_sigma_px: float,
-    min_length_px: float,
-    min_angle_deg: float,
-    min_gradient: float,
-    lsd_scale: float,
-    search_px: int,
-    trim_px: int,
-    side_px: int,
-    near_px: float,
-) -> None:
-    for name, value in (
-        ("sigma_px", sigma_px),
-        ("min_length_px", min_length_px),
-        ("lsd_scale", lsd_scale),
-    ):
-        positive(value, name)
-    positive(bias_sigma_px, "bias_sigma_px", allow_zero=True)
-    positive(min_gradient, "min_gradient", allow_zero=True)
-    if not (0.0 <= min_angle_deg < 90.0):
-        raise ValueError(f"min_angle_deg must be in [0, 90), got {min_angle_deg!r}")
-    if lsd_scale > 1.0:
-        raise ValueError(f"lsd_scale must be in (0, 1], got {lsd_scale!r}")
-    if int(search_px) != search_px or not (1 <= search_px <= _MAX_SEARCH_PX):
-        raise ValueError(
-            f"search_px must be an integer in [1, {_MAX_SEARCH_PX}], got {search_px!r}"
-        )
-    if int(trim_px) != trim_px or trim_px < 0:
-        raise ValueError(f"trim_px must be a non-negative integer, got {trim_px!r}")
-    if int(side_px) != side_px or not (1 <= side_px <= _MAX_SIDE_PX):
-        raise ValueError(f"side_px must be an integer in [1, {_MAX_SIDE_PX}], got {side_px!r}")
-    if not (0.5 <= near_px <= _MAX_SIDE_PX - 1):
-        raise ValueError(f"near_px must be in [0.5, {_MAX_SIDE_PX - 1}], got {near_px!r}")
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SegmentOptions:
+    """The options of :func:`extract_segments` and :func:`extract_segment_pair` (sections 3.1-3.2).
 
-
-def extract_segments(
-    gray: NDArray[np.uint8],
-    *,
-    sigma_px: float = 0.5,
-    bias_sigma_px: float = 0.1,
-    min_length_px: float = 12.0,
-    min_angle_deg: float = 25.0,
-    min_gradient: float = 5.0,
-    lsd_scale: float = 0.5,
-    search_px: int = 3,
-    trim_px: int = 2,
-    side_px: int = 3,
-    near_px: float = 1.5,
-) -> ImageSegments:
-    """Straight segments of a grey image, each with a least-squares horizontal position.
-
-    Args:
-        gray: (H, W) uint8 image (rectified), at least 8x8 pixels.
-        sigma_px: Nominal standard deviation of one edge point's column, px; the lower bound of the
-            per-point sigma (used in place of the fit residual when that is smaller). The rig's
-            ``sigma_px``.
+    Attributes:
+        sigma_px: Nominal standard deviation of one edge point's column, px; the lower bound of
+            the per-point sigma (used in place of the fit residual when that is smaller). The
+            rig's ``sigma_px``.
         bias_sigma_px: Standard deviation of the column error common to all edge points of a
             segment (sub-pixel quantisation of the edge by the imaging, rectification), px; added
             to the fitted variance. See the module docstring for the default.
         min_length_px: Segments shorter than this (after fitting) are dropped, px.
         min_angle_deg: Segments at less than this angle to the image rows are dropped (their
-            disparity is ill-defined along the epipolar lines), degrees.
+            disparity is ill-defined along the epipolar lines), degrees, in [0, 90).
         min_gradient: Smallest horizontal gradient (grey levels per px, central difference) that
             counts as an edge point.
         lsd_scale: Scale at which LSD detects segments, in (0, 1] (0.5: half resolution, faster
@@ -310,44 +266,88 @@ def extract_segments(
         near_px: Distance from the edge at which the "near" grey level of each side is sampled
             (linear interpolation along the row), px (0.5 to 3).
 
+    Raises:
+        ValueError: naming the option that is out of range.
+    """
+
+    sigma_px: float = 0.5
+    bias_sigma_px: float = 0.1
+    min_length_px: float = 12.0
+    min_angle_deg: float = 25.0
+    min_gradient: float = 5.0
+    lsd_scale: float = 0.5
+    search_px: int = 3
+    trim_px: int = 2
+    side_px: int = 3
+    near_px: float = 1.5
+
+    def __post_init__(self) -> None:
+        for name in ("sigma_px", "min_length_px", "lsd_scale"):
+            positive(getattr(self, name), name)
+        positive(self.bias_sigma_px, "bias_sigma_px", allow_zero=True)
+        positive(self.min_gradient, "min_gradient", allow_zero=True)
+        if not (0.0 <= self.min_angle_deg < 90.0):
+            raise ValueError(f"min_angle_deg must be in [0, 90), got {self.min_angle_deg!r}")
+        if self.lsd_scale > 1.0:
+            raise ValueError(f"lsd_scale must be in (0, 1], got {self.lsd_scale!r}")
+        search_px, trim_px, side_px = self.search_px, self.trim_px, self.side_px
+        if int(search_px) != search_px or not (1 <= search_px <= _MAX_SEARCH_PX):
+            raise ValueError(
+                f"search_px must be an integer in [1, {_MAX_SEARCH_PX}], got {search_px!r}"
+            )
+        if int(trim_px) != trim_px or trim_px < 0:
+            raise ValueError(f"trim_px must be a non-negative integer, got {trim_px!r}")
+        if int(side_px) != side_px or not (1 <= side_px <= _MAX_SIDE_PX):
+            raise ValueError(f"side_px must be an integer in [1, {_MAX_SIDE_PX}], got {side_px!r}")
+        if not (0.5 <= self.near_px <= _MAX_SIDE_PX - 1):
+            raise ValueError(f"near_px must be in [0.5, {_MAX_SIDE_PX - 1}], got {self.near_px!r}")
+
+    @property
+    def sin_min_angle(self) -> float:
+        """``sin(min_angle_deg)``: a line rising by less than this of its length is horizontal."""
+        return math.sin(math.radians(self.min_angle_deg))
+
+
+def extract_segments(
+    gray: NDArray[np.uint8], options: SegmentOptions | None = None, **overrides: Any
+) -> ImageSegments:
+    """Straight segments of a grey image, each with a least-squares horizontal position.
+
+    Args:
+        gray: (H, W) uint8 image (rectified), at least 8x8 pixels.
+        options: The options (defaults: ``SegmentOptions()``).
+        **overrides: Fields of ``SegmentOptions`` to replace, e.g. ``min_length_px=10.0``.
+
     Returns:
         The segments; empty when none is found (blank image, pure noise).
 
     Raises:
-        ValueError: ``gray`` is not a 2-D uint8 array of at least 8x8 pixels, or an option is out
-            of range.
+        ValueError: ``gray`` is not a 2-D uint8 array of at least 8x8 pixels, or an option is
+            unknown or out of range.
     """
     img = _check_gray(gray, "gray")
-    options = _Options(
-        sigma_px,
-        bias_sigma_px,
-        min_length_px,
-        min_angle_deg,
-        min_gradient,
-        lsd_scale,
-        search_px,
-        trim_px,
-        side_px,
-        near_px,
-    )
-    _check_options(*options)
-    return _fit([img], [_detect(img, options.lsd_scale)], options)[0]
+    opts = with_overrides(options, SegmentOptions, overrides)
+    return _fit([img], [_detect(img, opts.lsd_scale)], opts)[0]
 
 
 def extract_segment_pair(
-    left: NDArray[np.uint8], right: NDArray[np.uint8], **options: Any
+    left: NDArray[np.uint8],
+    right: NDArray[np.uint8],
+    options: SegmentOptions | None = None,
+    **overrides: Any,
 ) -> tuple[ImageSegments, ImageSegments]:
     """The segments of both images of a rectified pair: ``extract_segments`` of each, faster.
 
     The two line detections run at once (OpenCV releases the interpreter lock; one worker thread
-    per process), and the edge points of both images are re-localised and fitted in one
-    vectorised pass. The result is identical to ``(extract_segments(left, **options),
-    extract_segments(right, **options))``.
+    per process), and the edge points of both images are re-localised and fitted in one pass.
+    The result is identical to ``(extract_segments(left, options), extract_segments(right,
+    options))``.
 
     Args:
         left: (H, W) uint8 left image.
         right: (H, W) uint8 right image, the same shape.
-        **options: The keyword options of :func:`extract_segments`.
+        options: The options (defaults: ``SegmentOptions()``).
+        **overrides: Fields of ``SegmentOptions`` to replace.
 
     Returns:
         ``(left_segments, right_segments)``.
@@ -362,11 +362,7 @@ def extract_segment_pair(
         raise ValueError(
             f"left and right must have the same shape, got {img_l.shape}, {img_r.shape}"
         )
-    unknown = set(options) - set(_Options._fields)
-    if unknown:
-        raise ValueError(f"unknown option(s) of extract_segment_pair: {sorted(unknown)}")
-    opts = _Options(**{**_DEFAULTS, **options})
-    _check_options(*opts)
+    opts = with_overrides(options, SegmentOptions, overrides)
     job = worker().submit(_detect, img_r, opts.lsd_scale)
     lines_l = _detect(img_l, opts.lsd_scale)
     lines_r = job.result()
@@ -374,23 +370,23 @@ def extract_segment_pair(
     return segs_l, segs_r
 
 
-class _Options(NamedTuple):
-    """The keyword options of :func:`extract_segments` (its signature holds the defaults)."""
+def _list_options_in_signature(fn: Callable[..., Any], cls: type[Any]) -> None:
+    """Give ``fn`` the signature it has with the fields of the options dataclass ``cls`` (and
+    their defaults) as keyword-only parameters in place of ``**overrides``: the flat keywords it
+    accepts, as :func:`modeling.validation.keyword_options` reads them (``modeling.pipeline``
+    routes the flat keywords of its callers by them) and as ``help(fn)`` shows them."""
+    sig = inspect.signature(fn)
+    params = [p for p in sig.parameters.values() if p.kind is not p.VAR_KEYWORD]
+    defaults = cls()
+    params += [
+        inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=getattr(defaults, f.name))
+        for f in dataclasses.fields(cls)
+    ]
+    fn.__dict__["__signature__"] = sig.replace(parameters=params)
 
-    sigma_px: float
-    bias_sigma_px: float
-    min_length_px: float
-    min_angle_deg: float
-    min_gradient: float
-    lsd_scale: float
-    search_px: int
-    trim_px: int
-    side_px: int
-    near_px: float
 
-
-_DEFAULTS: dict[str, Any] = keyword_options(extract_segments)
-assert tuple(_DEFAULTS) == _Options._fields
+_list_options_in_signature(extract_segments, SegmentOptions)
+_list_options_in_signature(extract_segment_pair, SegmentOptions)
 
 
 # ------------------------------------------------------------------ detection and fitting
@@ -411,8 +407,45 @@ def _detect(img: NDArray[np.uint8], lsd_scale: float) -> FloatArray:
     return np.asarray(raw, dtype=np.float64).reshape(-1, 4) * to_full
 
 
+def _lines_to_fit(
+    detected: list[FloatArray], height: int, opts: SegmentOptions
+) -> tuple[list[FloatArray], LinesToFit]:
+    """The detected lines of each image sorted into the near-horizontal ones (per image, (h, 2, 2)
+    px, left end first, as detected) and the lines to fit (top end first, at least
+    ``min_length_px`` long, steep enough, crossing three rows or more after the trim at both
+    ends), with the rows each one crosses."""
+    n_img = len(detected)
+    lines = np.concatenate(detected)  # a copy: reordered in place below
+    image_of = np.repeat(np.arange(n_img), [len(d) for d in detected])
+    swap = lines[:, 1] > lines[:, 3]  # top end first
+    lines[swap] = lines[swap][:, [2, 3, 0, 1]]
+    x0, y0, x1, y1 = lines.T
+    dv = y1 - y0
+    length = np.hypot(x1 - x0, dv)
+    sin_min = opts.sin_min_angle
+    is_hor = (length >= opts.min_length_px) & (dv < sin_min * length)
+    hor = lines[is_hor].reshape(-1, 2, 2)
+    flip = hor[:, 0, 0] > hor[:, 1, 0]  # left end first
+    hor[flip] = hor[flip, ::-1]
+    hor_of = image_of[is_hor]
+    horizontal = [hor[hor_of == k] for k in range(n_img)]
+    r0 = np.maximum(np.ceil(y0).astype(np.int64) + opts.trim_px, 1)
+    r1 = np.minimum(np.floor(y1).astype(np.int64) - opts.trim_px, height - 2)
+    keep = np.flatnonzero(
+        (length >= opts.min_length_px) & (dv > 0) & (dv >= sin_min * length) & (r1 >= r0 + 2)
+    )
+    return horizontal, LinesToFit(
+        image_of=image_of[keep],
+        x0=x0[keep],
+        y0=y0[keep],
+        inv_slope=(x1[keep] - x0[keep]) / dv[keep],  # du/dv of the detected line
+        r0=r0[keep],
+        r1=r1[keep],
+    )
+
+
 def _fit(
-    images: list[NDArray[np.uint8]], detected: list[FloatArray], opts: _Options
+    images: list[NDArray[np.uint8]], detected: list[FloatArray], opts: SegmentOptions
 ) -> list[ImageSegments]:
     """Re-localise and fit the LSD lines of each image (same shapes), all in one pass.
 
@@ -422,80 +455,92 @@ def _fit(
     """
     H, W = images[0].shape
     shape = (H, W)
-    sigma_px, bias_sigma_px, min_length_px, min_angle_deg, min_gradient = opts[:5]
-    search_px, trim_px, side_px, near_px = opts.search_px, opts.trim_px, opts.side_px, opts.near_px
     n_img = len(images)
-    counts = np.array([len(d) for d in detected], dtype=np.int64)
-    if counts.sum() == 0:
+    if sum(len(d) for d in detected) == 0:
         return [ImageSegments.empty(shape) for _ in images]
-    sin_min = math.sin(math.radians(min_angle_deg))
-    # each line top end first; the near-horizontal ones (left end first) apart; the rows each
-    # other one crosses, trimmed at both ends (``_edge_kernel.detected_lines``)
-    hor, hor_count, image_of, x0, y0, inv_slope, r0, r1 = detected_lines(
-        np.concatenate(detected), counts, H, float(min_length_px), sin_min, int(trim_px)
-    )
-    bounds = np.concatenate(([0], np.cumsum(hor_count))).tolist()
-    horizontal = [hor[bounds[k] : bounds[k + 1]] for k in range(n_img)]
-    if x0.size == 0:
+    horizontal, lines = _lines_to_fit(detected, H, opts)
+    if lines.x0.size == 0:
         return [ImageSegments.empty(shape, horizontal=h) for h in horizontal]
-
-    # edge points, one per row (the compiled loop of ``_edge_kernel``), summed per segment; the
-    # pixel block around the LSD line covers the search window, the peak's neighbours and the
-    # side samples
-    B = search_px + max(side_px, math.ceil(near_px) + 1)
-    S, polarity, first_row, last_row = edge_sums(
-        np.concatenate(images) if n_img > 1 else np.ascontiguousarray(images[0]),
-        H,
-        image_of,
-        x0,
-        y0,
-        inv_slope,
-        r0,
-        r1,
-        search_px,
-        side_px,
-        float(near_px),
-        B,
-        float(min_gradient),
+    # edge points, one per row, summed per segment (``modeling.edge_points.edge_sums_reference``
+    # is the NumPy formulation); the pixel block around the LSD line covers the
+    # search window, the peak's neighbours and the side samples
+    search = EdgeSearch(
+        height=H,
+        search_px=int(opts.search_px),
+        side_px=int(opts.side_px),
+        near_px=float(opts.near_px),
+        half_block=opts.search_px + max(opts.side_px, math.ceil(opts.near_px) + 1),
+        min_gradient=float(opts.min_gradient),
     )
-    fit, ok = segment_fits(
-        S,
-        first_row,
-        last_row,
-        x0,
-        y0,
-        inv_slope,
-        r0,
-        float(sigma_px),
-        float(min_length_px),
-        sin_min,
-    )
-    sel = np.flatnonzero(ok)
+    stack = np.concatenate(images) if n_img > 1 else np.ascontiguousarray(images[0])
+    edges = edge_sums(stack, lines, search)
+    fit = _least_squares_lines(edges, lines, opts)
+    sel = np.flatnonzero(fit.pop("ok"))
     out = []
     for k in range(n_img):
-        mine = sel[image_of[sel] == k]
+        mine = sel[lines.image_of[sel] == k]
         if mine.size == 0:
             out.append(ImageSegments.empty(shape, horizontal=horizontal[k]))
             continue
-        f = fit[:, mine]  # rows as ``_edge_kernel.N_FIT`` says, contiguous
         out.append(
             ImageSegments._trusted(
                 shape,
-                endpoints=f[:4].T.reshape(-1, 2, 2),
-                u_center=f[4],
-                v_center=f[5],
-                slope=f[6],
-                point_var=f[7],
-                n_points=f[8].astype(np.int64),
-                s_vv=f[9],
-                bias_var=np.full(mine.size, float(bias_sigma_px) ** 2),
-                polarity=polarity[mine],
-                contrast=f[10],
-                grey_left=f[11],
-                grey_right=f[12],
-                grey_left_near=f[13],
-                grey_right_near=f[14],
+                bias_var=np.full(mine.size, float(opts.bias_sigma_px) ** 2),
+                polarity=edges.polarity[mine],
                 horizontal=horizontal[k],
+                **{name: values[mine] for name, values in fit.items()},
             )
         )
     return out
+
+
+def _least_squares_lines(
+    edges: EdgeSums, lines: LinesToFit, opts: SegmentOptions
+) -> dict[str, np.ndarray]:
+    """The least-squares line ``u = u_c + slope (v - v_c)`` of each line's edge points from their
+    sums (section 3.2), with its variances and mean grey levels.
+
+    Returns:
+        The ``ImageSegments`` fields ``endpoints`` (m, 2, 2), ``u_center``, ``v_center``,
+        ``slope``, ``point_var``, ``n_points``, ``s_vv``, ``contrast``, ``grey_left``,
+        ``grey_right``, ``grey_left_near``, ``grey_right_near`` (m,) each, and ``ok`` (m,):
+        whether the segment is kept (at least 3 edge points spread over rows, at least
+        ``min_length_px`` long and steep enough).
+    """
+    S = edges.sums  # columns as ``modeling._compiled.edge.N_SUMS`` says
+    n = S[:, 0]
+    safe_n = np.maximum(n, 1.0)
+    mv = S[:, 1] / safe_n
+    mu = S[:, 2] / safe_n
+    svv = S[:, 3] - n * mv * mv
+    suv = S[:, 4] - n * mv * mu
+    suu = S[:, 5] - n * mu * mu
+    ok = (n >= 3) & (svv > 1e-9)
+    b = suv / np.where(ok, svv, 1.0)  # slope relative to the detected line
+    rss = np.maximum(suu - b * suv, 0.0)
+    slope = lines.inv_slope + b
+    vc = lines.r0 + mv  # mean row of the edge points
+    uc = lines.x0 + lines.inv_slope * (vc - lines.y0) + mu  # the fitted column there
+    grey = S[:, 6:] / safe_n[:, None]  # contrast, grey far left, far right, near left, near right
+    # the ends: the first and last row with edge points
+    v0 = edges.first_row.astype(np.float64)
+    v1 = edges.last_row.astype(np.float64)
+    u0 = uc + slope * (v0 - vc)
+    u1 = uc + slope * (v1 - vc)
+    seg_len = np.hypot(u1 - u0, v1 - v0)
+    ok &= (v1 > v0) & (seg_len >= opts.min_length_px) & ((v1 - v0) >= opts.sin_min_angle * seg_len)
+    return {
+        "ok": ok,
+        "endpoints": np.stack([u0, v0, u1, v1], axis=1).reshape(-1, 2, 2),
+        "u_center": uc,
+        "v_center": vc,
+        "slope": slope,
+        "point_var": np.maximum(rss / np.maximum(n - 2.0, 1.0), opts.sigma_px**2),
+        "n_points": n.astype(np.int64),
+        "s_vv": svv,
+        "contrast": grey[:, 0],
+        "grey_left": grey[:, 1],
+        "grey_right": grey[:, 2],
+        "grey_left_near": grey[:, 3],
+        "grey_right_near": grey[:, 4],
+    }

@@ -1,21 +1,56 @@
-"""Compiled loops of the segment fit (:mod:`modeling.segments`): edge points, then lines.
+"""The compiled loop of the segment fit (:mod:`modeling.segments`, section 3.2): edge points.
 
 :func:`edge_sums`: for every image row a detected line crosses, the edge point is found as the
 parabolic peak of the horizontal central-difference gradient (of the segment's own contrast sign)
 in a window around the line, and the least-squares sums of the segment's edge points are
-accumulated. :func:`segment_fits`: the least-squares line of each segment from its sums. The
-arithmetic is that of the vectorised NumPy formulation they replace (float32 gradients and peak
-offsets, float64 sums), written as loops so that it costs a fraction of the many array passes.
+accumulated. The arithmetic is that of the NumPy reference
+:func:`modeling.edge_points.edge_sums_reference` (float32 gradients and peak offsets, float64
+sums), written as one loop so that it costs a fraction of the many array passes. It takes and
+returns the small named tuples below.
 
-Both are compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not
-import Numba.
+It is compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module
+does not import Numba.
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from modeling._compiled.jit import compiled_on_first_call
+
+
+class LinesToFit(NamedTuple):
+    """The detected lines to re-localise and fit, ``m`` rows (``modeling.segments``)."""
+
+    image_of: np.ndarray  # (m,) image of each line (the images are stacked)
+    x0: np.ndarray  # (m,) upper endpoint of each line, px
+    y0: np.ndarray  # (m,)
+    inv_slope: np.ndarray  # (m,) du/dv of each line
+    r0: np.ndarray  # (m,) first row to search, within the image
+    r1: np.ndarray  # (m,) last row to search (inclusive)
+
+
+class EdgeSearch(NamedTuple):
+    """How the edge point of a row is searched and sampled (:func:`edge_sums`)."""
+
+    height: int  # rows per image
+    search_px: int  # half-width of the peak search window, px
+    side_px: int  # offset of the "far" grey samples, px
+    near_px: float  # offset of the "near" grey samples (linear interpolation), px
+    half_block: int  # half-width ``B`` of the pixel block around the line
+    min_gradient: float  # smallest peak gradient of an edge point
+
+
+class EdgeSums(NamedTuple):
+    """Per-segment sums of the edge points (:func:`edge_sums`), ``m`` rows."""
+
+    sums: np.ndarray  # (m, N_SUMS) float64, columns as ``N_SUMS`` says
+    polarity: np.ndarray  # (m,) int8
+    first_row: np.ndarray  # (m,) first row with an edge point (-1: none)
+    last_row: np.ndarray  # (m,) last row with an edge point (-1: none)
+
 
 # Columns of the per-segment sums: n, sum v, sum u, sum v^2, sum v u, sum u^2, then the sums of the
 # peak gradient, the far grey level left and right, the near grey level left and right.
@@ -23,42 +58,21 @@ N_SUMS = 11
 
 
 @compiled_on_first_call
-def edge_sums(
-    stack: np.ndarray,
-    height: int,
-    image_of: np.ndarray,
-    x0: np.ndarray,
-    y0: np.ndarray,
-    inv_slope: np.ndarray,
-    r0: np.ndarray,
-    r1: np.ndarray,
-    search_px: int,
-    side_px: int,
-    near_px: float,
-    half_block: int,
-    min_gradient: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def edge_sums(stack: np.ndarray, lines: LinesToFit, search: EdgeSearch) -> EdgeSums:
     """Per-segment least-squares sums of the edge points (see the module docstring).
 
     Args:
         stack: (n_images * height, W) uint8, the images one below the other.
-        height: Rows per image.
-        image_of: (m,) image of each segment.
-        x0, y0: (m,) upper endpoint of each detected line, px.
-        inv_slope: (m,) du/dv of each detected line.
-        r0, r1: (m,) first and last row to search (inclusive), within the image.
-        search_px: Half-width of the peak search window, px.
-        side_px: Offset of the "far" grey samples, px.
-        near_px: Offset of the "near" grey samples (linear interpolation), px.
-        half_block: Half-width ``B`` of the pixel block around the line (replicated past the
-            image's sides).
-        min_gradient: Smallest peak gradient of an edge point.
+        lines: The lines to fit.
+        search: The search window and the samples.
 
     Returns:
-        ``(sums, polarity, first_row, last_row)``: (m, 11) float64 sums (columns as ``N_SUMS``
-        says; ``v`` relative to ``r0``, ``u`` to the detected line), (m,) int8 polarity, and the
-        first and last row with an edge point (-1 where there is none).
+        (m, 11) float64 sums (columns as ``N_SUMS`` says; ``v`` relative to ``r0``, ``u`` to the
+        detected line), (m,) int8 polarity, and the first and last row with an edge point (-1
+        where there is none). Reference: :func:`modeling.edge_points.edge_sums_reference`.
     """
+    image_of, x0, y0, inv_slope, r0, r1 = lines
+    height, search_px, side_px, near_px, half_block, min_gradient = search
     m = x0.shape[0]
     width = stack.shape[1]
     B = half_block
@@ -142,159 +156,4 @@ def edge_sums(
             if first_row[s] < 0:
                 first_row[s] = r
             last_row[s] = r
-    return sums, polarity, first_row, last_row
-
-
-# Rows of the per-segment fit: the two ends (u0, v0, u1, v1), the fitted line (u_center, v_center,
-# slope), the per-point variance, n, S_vv, then the mean peak gradient and grey levels (far left,
-# far right, near left, near right).
-N_FIT = 15
-
-
-@compiled_on_first_call
-def segment_fits(
-    sums: np.ndarray,
-    first_row: np.ndarray,
-    last_row: np.ndarray,
-    x0: np.ndarray,
-    y0: np.ndarray,
-    inv_slope: np.ndarray,
-    r0: np.ndarray,
-    sigma_px: float,
-    min_length_px: float,
-    sin_min: float,
-) -> tuple[np.ndarray, np.ndarray]:
-    """The least-squares line of each segment from its sums (see :func:`edge_sums`).
-
-    Returns:
-        ``(fit, ok)``: (15, m) float64 rows as ``N_FIT`` says, and (m,) whether the segment is
-        kept (at least 3 edge points spread over rows, long and steep enough).
-    """
-    m = sums.shape[0]
-    fit = np.zeros((N_FIT, m))
-    ok = np.zeros(m, np.bool_)
-    var_min = sigma_px**2
-    for s in range(m):
-        n = sums[s, 0]
-        safe_n = max(n, 1.0)
-        mv = sums[s, 1] / safe_n
-        mu = sums[s, 2] / safe_n
-        svv = sums[s, 3] - n * mv * mv
-        suv = sums[s, 4] - n * mv * mu
-        suu = sums[s, 5] - n * mu * mu
-        good = n >= 3 and svv > 1e-9
-        b = suv / (svv if good else 1.0)  # slope relative to the detected line
-        rss = max(suu - b * suv, 0.0)
-        slope = inv_slope[s] + b
-        vc = r0[s] + mv  # mean row of the edge points
-        uc = x0[s] + inv_slope[s] * (vc - y0[s]) + mu  # the fitted column there
-        v0 = float(first_row[s])
-        v1 = float(last_row[s])
-        u0 = uc + slope * (v0 - vc)
-        u1 = uc + slope * (v1 - vc)
-        seg_len = np.hypot(u1 - u0, v1 - v0)
-        ok[s] = good and v1 > v0 and seg_len >= min_length_px and (v1 - v0) >= sin_min * seg_len
-        fit[0, s] = u0
-        fit[1, s] = v0
-        fit[2, s] = u1
-        fit[3, s] = v1
-        fit[4, s] = uc
-        fit[5, s] = vc
-        fit[6, s] = slope
-        fit[7, s] = max(rss / max(n - 2.0, 1.0), var_min)
-        fit[8, s] = n
-        fit[9, s] = svv
-        for c in range(5):
-            fit[10 + c, s] = sums[s, 6 + c] / safe_n
-    return fit, ok
-
-
-@compiled_on_first_call
-def detected_lines(
-    lines: np.ndarray,
-    counts: np.ndarray,
-    height: int,
-    min_length_px: float,
-    sin_min: float,
-    trim_px: int,
-) -> tuple[
-    np.ndarray,
-    np.ndarray,
-    np.ndarray,
-    np.ndarray,
-    np.ndarray,
-    np.ndarray,
-    np.ndarray,
-    np.ndarray,
-]:
-    """The detected lines of the stacked images sorted into near-horizontal ones and the
-    near-vertical ones to fit.
-
-    Args:
-        lines: (N, 4) ``x0, y0, x1, y1`` of the detected lines, image after image, px.
-        counts: (n_images,) how many lines each image has.
-        height: Rows per image.
-        min_length_px: Shortest line kept, px.
-        sin_min: A line is near-horizontal where its rise is below ``sin_min`` of its length.
-        trim_px: Rows left out at both ends of a line's row range.
-
-    Returns:
-        ``(horizontal, horizontal_count, image_of, x0, y0, inv_slope, r0, r1)``: the
-        near-horizontal lines (h, 2, 2), left end first, image after image, and how many each
-        image has (n_images,); for each line to fit (top end first, at least ``min_length_px``
-        long, rising by at least ``sin_min`` of its length, crossing three rows or more after the
-        trim): its image, top end, du/dv, and first and last row to search (within the image).
-    """
-    n = lines.shape[0]
-    horizontal = np.empty((n, 2, 2))
-    horizontal_count = np.zeros(counts.shape[0], np.int64)
-    image_of = np.empty(n, np.int64)
-    x0_out = np.empty(n)
-    y0_out = np.empty(n)
-    inv_slope = np.empty(n)
-    r0_out = np.empty(n, np.int64)
-    r1_out = np.empty(n, np.int64)
-    h = 0
-    m = 0
-    line = 0
-    for image in range(counts.shape[0]):
-        for _ in range(counts[image]):
-            x0, y0, x1, y1 = lines[line, 0], lines[line, 1], lines[line, 2], lines[line, 3]
-            line += 1
-            if y0 > y1:  # top end first
-                x0, y0, x1, y1 = x1, y1, x0, y0
-            dv = y1 - y0
-            length = np.hypot(x1 - x0, dv)
-            if not length >= min_length_px:
-                continue
-            if dv < sin_min * length:
-                if x0 > x1:  # left end first
-                    horizontal[h, 0, 0], horizontal[h, 0, 1] = x1, y1
-                    horizontal[h, 1, 0], horizontal[h, 1, 1] = x0, y0
-                else:
-                    horizontal[h, 0, 0], horizontal[h, 0, 1] = x0, y0
-                    horizontal[h, 1, 0], horizontal[h, 1, 1] = x1, y1
-                horizontal_count[image] += 1
-                h += 1
-                continue
-            r0 = max(np.int64(np.ceil(y0)) + trim_px, 1)
-            r1 = min(np.int64(np.floor(y1)) - trim_px, height - 2)
-            if not (dv > 0 and r1 >= r0 + 2):
-                continue
-            image_of[m] = image
-            x0_out[m] = x0
-            y0_out[m] = y0
-            inv_slope[m] = (x1 - x0) / dv
-            r0_out[m] = r0
-            r1_out[m] = r1
-            m += 1
-    return (
-        horizontal[:h],
-        horizontal_count,
-        image_of[:m],
-        x0_out[:m],
-        y0_out[:m],
-        inv_slope[:m],
-        r0_out[:m],
-        r1_out[:m],
-    )
+    return EdgeSums(sums=sums, polarity=polarity, first_row=first_row, last_row=last_row)

@@ -1,0 +1,159 @@
+"""The compiled decision of the matching equals its readable reference (section 3.1; Eq. 1 of 3.3).
+
+``modeling._compiled.match.decide`` against ``modeling.disparity_histograms.
+decide_matches_reference``: exactly equal on the region histograms of seeded rendered pairs (four
+option sets) and on seeded random histograms with ties and flat tops.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from modeling._compiled.match import Candidates, Decision, HistogramInputs, PeakRule, decide
+from modeling.disparity_histograms import (
+    decide_matches_reference,
+    histogram_inputs,
+    region_histograms,
+)
+from modeling.matching import MatchOptions, match_candidates
+from modeling.rig import StereoRig
+from modeling.segments import extract_segment_pair
+from tests.modeling.synth import render_pair
+
+RIG = StereoRig()
+
+
+def _assert_same(got: Decision, want: Decision) -> None:
+    for name in Decision._fields:
+        a, b = getattr(got, name), getattr(want, name)
+        assert a.dtype == b.dtype, name
+        np.testing.assert_array_equal(a, b, err_msg=name)
+
+
+def _decision_inputs(
+    cand: Candidates, slope_l: np.ndarray, mid_of_left: np.ndarray, opts: MatchOptions
+) -> tuple[np.ndarray, HistogramInputs, PeakRule]:
+    inputs = histogram_inputs(cand, slope_l, opts.splat())
+    hist = region_histograms(
+        inputs, mid_of_left[inputs.rows], opts.region_sigma_px, opts.self_weight
+    )
+    return hist, inputs, opts.peak_rule(inputs.n_bins, slope_l.size)
+
+
+def _rendered_pair(seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Boards at random depths, some repeated (ambiguous), with pixel noise."""
+    rng = np.random.default_rng(seed)
+    rects = []
+    for _ in range(5):
+        x0 = rng.uniform(-1.2, 0.8)
+        rects.append(
+            (
+                x0,
+                x0 + rng.uniform(0.05, 0.3),
+                -0.6,
+                rng.uniform(0.2, 0.8),
+                rng.uniform(1.2, 3.5),
+                rng.uniform(30, 230),
+            )
+        )
+    left, right, _ = render_pair(RIG, rects, noise=2.0, rng=rng, ss=4)
+    return left, right
+
+
+OPTION_SETS: list[dict[str, Any]] = [
+    {},
+    {"unique_right": False},
+    {"rel_peak": 0.2, "self_weight": 0.5},
+    {"max_grey_diff": np.inf, "max_near_grey_diff": np.inf, "min_peak_sep_px": 1.0},
+]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_decide_equals_reference_on_rendered_pairs(seed: int) -> None:
+    sl, sr = extract_segment_pair(*_rendered_pair(seed))
+    mid = 0.5 * (sl.endpoints[:, 0] + sl.endpoints[:, 1])
+    kept = 0
+    for overrides in OPTION_SETS:
+        opts = MatchOptions(**overrides)
+        c = match_candidates(sl, sr, RIG, opts)
+        if len(c) == 0:
+            continue
+        cand = Candidates(
+            li=c.left_index,
+            rj=c.right_index,
+            rows=c.rows_px,
+            overlap=c.overlap_px,
+            disparity=c.disparity_px,
+            opposite=c.opposite_polarity,
+        )
+        hist, inputs, rule = _decision_inputs(cand, sl.slope, mid, opts)
+        got = decide(hist, cand, inputs, rule)
+        _assert_same(got, decide_matches_reference(hist, cand, inputs, rule))
+        kept += got.sel.size
+    assert kept > 0  # the pairs do exercise the rule
+
+
+def _random_candidates(rng: np.random.Generator, n_left: int, n_right: int, k: int) -> Candidates:
+    li = np.sort(rng.integers(0, n_left, k))
+    lo = rng.integers(0, 150, k).astype(float)
+    d = rng.integers(5, 40, k).astype(float) + rng.choice([0.0, 0.5], k)
+    return Candidates(
+        li=li,
+        rj=rng.integers(0, n_right, k),
+        rows=np.stack([lo, lo + rng.integers(8, 60, k)], axis=1),
+        overlap=rng.integers(8, 60, k).astype(float),  # equal weights: the ties are exercised
+        disparity=np.stack([d, d + rng.choice([-1.0, 0.0, 1.0], k)], axis=1),
+        opposite=rng.random(k) < 0.3,
+    )
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_decide_equals_reference_on_random_histograms(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    n_left = int(rng.integers(1, 7))
+    cand = _random_candidates(rng, n_left, int(rng.integers(1, 6)), int(rng.integers(1, 25)))
+    opts = MatchOptions(
+        rel_peak=float(rng.choice([0.3, 0.5, 1.0])),
+        min_peak_sep_px=float(rng.choice([1.0, 2.5, 4.0])),
+        agree_px=float(rng.choice([1.0, 2.5])),
+        unique_right=bool(rng.random() < 0.7),
+    )
+    slope = rng.choice([0.0, 0.1], n_left)
+    mid = rng.uniform(0, 240, (n_left, 2))
+    smooth, inputs, rule = _decision_inputs(cand, slope, mid, opts)
+    # the smooth region histograms, and coarse integer ones (flat tops, equal peaks, empty rows)
+    coarse = rng.integers(0, 4, smooth.shape).astype(float)
+    for hist in (smooth, coarse):
+        _assert_same(
+            decide(hist, cand, inputs, rule), decide_matches_reference(hist, cand, inputs, rule)
+        )
+
+
+def test_decide_keeps_one_candidate_per_peak_with_eq1_probabilities() -> None:
+    # one left segment, two candidates at disparities 10 and 30 under two equal-shaped peaks of
+    # heights 3 and 1: both kept, probabilities 3/4 and 1/4 (Eq. 1), the higher peak first
+    cand = Candidates(
+        li=np.array([0, 0]),
+        rj=np.array([0, 1]),
+        rows=np.array([[0.0, 50.0], [0.0, 50.0]]),
+        overlap=np.array([50.0, 50.0]),
+        disparity=np.array([[10.0, 10.0], [30.0, 30.0]]),
+        opposite=np.array([False, False]),
+    )
+    opts = MatchOptions(rel_peak=0.2, unique_right=False)
+    _, inputs, rule = _decision_inputs(cand, np.zeros(1), np.zeros((1, 2)), opts)
+    hist = np.zeros((1, inputs.n_bins))
+    for d, height in ((10.0, 3.0), (30.0, 1.0)):
+        b = round(d - inputs.d_base)
+        hist[0, b - 1 : b + 2] = [0.5 * height, height, 0.5 * height]
+    for got in (
+        decide(hist, cand, inputs, rule),
+        decide_matches_reference(hist, cand, inputs, rule),
+    ):
+        assert got.sel.tolist() == [0, 1]
+        np.testing.assert_allclose(got.probability, [0.75, 0.25])
+        np.testing.assert_allclose(got.peak_disparity, [10.0, 30.0])
+        np.testing.assert_allclose(got.peak_height, [3.0, 1.0])
