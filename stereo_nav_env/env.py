@@ -260,7 +260,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             assert self._clean_pair is not None
             left, right = self._clean_pair
             if self._noise_levels is not None:
-                noise = noise_of_levels(self._noise_levels, self.config.pixel_noise_std)
+                noise = noise_of_levels(self._noise_levels, self.config.camera.pixel_noise_std)
                 left = add_pixel_noise(left, noise[0])
                 right = add_pixel_noise(right, noise[1])
             self._pair = (left, right)
@@ -279,7 +279,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         """Render the pair, run the pipeline, pack the observation (``self.model`` updated)."""
         cfg = self.config
         rig = self.rig
-        sigma = cfg.pixel_noise_std
+        sigma = cfg.camera.pixel_noise_std
         # the pixel noise is drawn in the worker thread while the pair renders (the generator
         # releases the interpreter lock; nothing else draws from np_random meanwhile, so the
         # draws are those of drawing it here, before the render)
@@ -306,8 +306,8 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             grey[1],
             self.rig,
             head,
-            robot_width_m=cfg.robot_width_m,
-            robot_height_m=cfg.robot_height_m,
+            robot_width_m=cfg.world.robot_width_m,
+            robot_height_m=cfg.world.robot_height_m,
             eps=cfg.eps,
             max_situations=cfg.model_max_situations,
             close_faces=cfg.close_faces,
@@ -318,7 +318,9 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         assert self.scene is not None
         obs: Obs = {
             "goal": goal_features(self.scene.goal, pose),
-            "head_pan": np.array([_pan_fraction(world.pan_rad, cfg.pan_limit_rad)], np.float32),
+            "head_pan": np.array(
+                [_pan_fraction(world.pan_rad, cfg.world.pan_limit_rad)], np.float32
+            ),
         }
         if cfg.observation.has_model:
             obs.update(pack_model(self.model, pose, cfg.observation))
@@ -362,15 +364,17 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             scene = self._fixed_scene
         else:
             scene_seed = int(self.np_random.integers(2**31 - 1))
-            scene = load_scenario(cfg.scenario, scene_seed, robot_width_m=cfg.robot_width_m)
+            scene = load_scenario(cfg.scenario, scene_seed, robot_width_m=cfg.world.robot_width_m)
         self.scene = scene
-        self.world = World(scene, cfg.world_config)
+        self.world = World(scene, cfg.world)
         if self._truth_scene is not scene:
             self._geodesic = GeodesicField.build(
-                scene, cfg.robot_radius_m, cfg.rewards.geodesic_cell_m
+                scene, cfg.world.robot_radius_m, cfg.rewards.geodesic_cell_m
             )
             self._truth = (
-                GroundTruth.of(scene, cfg.robot_width_m, max_height_m=cfg.robot_height_m)
+                GroundTruth.of(
+                    scene, cfg.world.robot_width_m, max_height_m=cfg.world.robot_height_m
+                )
                 if cfg.diagnostics
                 else None
             )
@@ -394,9 +398,9 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         cfg = self.config
         before = self._geodesic(self.robot_pose[:2])
         result = world.step(
-            command[0] * cfg.max_speed_m_s,
-            command[1] * cfg.max_turn_rate_rad_s,
-            command[2] * cfg.pan_limit_rad,
+            command[0] * cfg.world.max_speed_m_s,
+            command[1] * cfg.world.max_turn_rate_rad_s,
+            command[2] * cfg.world.pan_limit_rad,
         )
         watch.lap("physics")
         obs = self._observe(watch)
@@ -430,7 +434,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         assert self.scene is not None
         if self._view is None:
             view = MapView.of(self.scene)
-            self._view = (view, draw_background(self.scene, view, self.config.robot_width_m))
+            self._view = (view, draw_background(self.scene, view, self.config.world.robot_width_m))
         view, background = self._view
         model = self.model
         lines = [f"{self.scene.name}  step {self._steps}  return {self._return:+.2f}"]
@@ -458,7 +462,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             model=model,
             robot_pose=self.robot_pose,
             gaze_rad=state.gaze_rad,
-            robot_radius_m=self.config.robot_radius_m,
+            robot_radius_m=self.config.world.robot_radius_m,
             goal_radius_m=self.config.goal_radius_m,
             left_image=None if self._clean_pair is None else self._noisy_pair()[0],
             caption="\n".join(lines),
