@@ -17,7 +17,6 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from modeling._compiled.worker import worker
 from modeling.model import EnvironmentModel
 from modeling.pipeline import to_gray
 from modeling.rig import HeadPose, StereoRig
@@ -123,26 +122,37 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     ``Dict`` (K = ``num_situations`` = 8, R = ``num_regions`` = 8, F = 12, S = ``raster_size_px``
     = 64; robot frame: origin at the robot's centre, +x forward, +y left, metres):
 
-    | key                | shape        | dtype   | meaning                                     |
-    |--------------------|--------------|---------|---------------------------------------------|
-    | `situation_probs`  | (K,)         | float32 | probabilities of the K most probable        |
-    |                    |              |         | situations, descending (0: none)            |
-    | `critical_regions` | (K * R * F,) | float32 | row-major (K, R, F): each situation's       |
-    |                    |              |         | critical regions, nearest first             |
-    | `raster`           | (S, S, 3)    | uint8   | egocentric top-down raster, forward up:     |
-    |                    |              |         | expected occupancy; doubt 4p(1-p) of the    |
-    |                    |              |         | critical regions; unobserved (255 occluded, |
-    |                    |              |         | 128 outside the field of view)              |
-    | `goal`             | (4,)         | float32 | goal in the robot frame: x_m, y_m,          |
-    |                    |              |         | distance_m, bearing_rad                     |
-    | `head_pan`         | (1,)         | float32 | head pan relative to the body divided by    |
-    |                    |              |         | ``pan_limit_rad``, in [-1, 1]               |
-    | `left`, `right`    | (H, W, 3)    | uint8   | the noisy rectified pair (``observation_mode`` |
-    |                    |              |         | ``"images"`` or ``"both"``)                 |
+    | key                | shape        | dtype   | range       | meaning                       |
+    |--------------------|--------------|---------|-------------|-------------------------------|
+    | `situation_probs`  | (K,)         | float32 | [0, 1]      | probabilities of the K most   |
+    |                    |              |         |             | probable situations,          |
+    |                    |              |         |             | descending (0: none)          |
+    | `critical_regions` | (K * R * F,) | float32 | per column, | row-major (K, R, F): each     |
+    |                    |              |         | see below   | situation's critical regions, |
+    |                    |              |         |             | nearest first                 |
+    | `raster`           | (S, S, 3)    | uint8   | [0, 255]    | egocentric top-down raster,   |
+    |                    |              |         |             | forward up: expected          |
+    |                    |              |         |             | occupancy; doubt 4p(1-p) of   |
+    |                    |              |         |             | the critical regions;         |
+    |                    |              |         |             | unobserved (255 occluded, 128 |
+    |                    |              |         |             | outside the field of view)    |
+    | `goal`             | (4,)         | float32 | x, y in     | goal in the robot frame:      |
+    |                    |              |         | [-100, 100] | x_m, y_m, distance_m,         |
+    |                    |              |         | m; d [0,    | bearing_rad (``GOAL_RANGE_M`` |
+    |                    |              |         | 200]; [-pi, | = 100 m clips the lengths)    |
+    |                    |              |         | pi] rad     |                               |
+    | `head_pan`         | (1,)         | float32 | [-1, 1]     | head pan relative to the body |
+    |                    |              |         |             | divided by ``pan_limit_rad``  |
+    | `left`, `right`    | (H, W, 3)    | uint8   | [0, 255]    | the noisy rectified pair      |
+    |                    |              |         |             | (``observation_mode``         |
+    |                    |              |         |             | ``"images"`` or ``"both"``)   |
 
     The F region columns: valid, x_m, y_m (centre of the narrowest undecided relation),
     width_mean_m, width_std_m, p_passable, doubt (4p(1-p)), distance_m, bearing_rad, axis_x, axis_y
-    (unit vector across the gap), radius_m (extent of the region); padding rows are all 0. With
+    (unit vector across the gap), radius_m (extent of the region); padding rows are all 0. Their
+    ranges (L = ``feature_range_m``, 10 m; larger values clipped): valid, p_passable, doubt in
+    [0, 1]; x_m, y_m in [-L, L]; width_mean_m, width_std_m, radius_m in [0, L]; distance_m in
+    [0, 2L]; bearing_rad in [-pi, pi]; axis_x, axis_y in [-1, 1]. With
     ``observation_mode="images"`` only ``left``, ``right``, ``goal`` and ``head_pan`` are present.
     Details: :mod:`stereo_nav_env.observation`, :mod:`stereo_nav_env.raster`.
 
@@ -175,10 +185,15 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     ``gym.make("StereoNav-v0", render_mode=None, **kwargs)``: ``render_mode`` is ``None`` or
     ``"rgb_array"`` (``render()`` returns a 480 x 960 RGB frame: the true world from above with the
     model overlaid and the left image; :mod:`stereo_nav_env.viewer`). Every other keyword is a field
-    of :class:`~stereo_nav_env.config.EnvConfig` (scenario, robot and camera, noise, dynamics,
-    model), :class:`~stereo_nav_env.config.ObservationConfig` (``observation_mode``, K, R, raster)
-    or :class:`~stereo_nav_env.config.RewardConfig` (weights); an unknown or invalid one is a
-    ``ValueError`` naming it.
+    of :class:`~stereo_nav_env.config.EnvConfig` (scenario, episode end, model settings) or of one
+    of its sub-configurations, given flat (``robot_width_m=0.6``, ``num_situations=4``) or whole
+    (``world=``, ``camera=``, ``observation=``, ``rewards=``: an instance or a dict):
+    :class:`~stereo_nav_env.world.WorldConfig` (robot size, speeds, pan, ``dt_s``),
+    :class:`~stereo_nav_env.config.CameraConfig` (image size, focal length, baseline, pixel noise),
+    :class:`~stereo_nav_env.config.ObservationConfig` (``observation_mode``, K, R, raster) and
+    :class:`~stereo_nav_env.config.RewardConfig` (weights); an unknown or invalid one is a
+    ``ValueError`` naming it. The configuration is ``env.unwrapped.config`` (e.g.
+    ``config.world.max_speed_m_s``), its stereo rig ``env.unwrapped.rig``.
 
     ## Version History
     * v0: the model-based observation (situations, critical regions, raster), move-and-look
@@ -280,15 +295,12 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         cfg = self.config
         rig = self.rig
         sigma = cfg.camera.pixel_noise_std
-        # the pixel noise is drawn in the worker thread while the pair renders (the generator
-        # releases the interpreter lock; nothing else draws from np_random meanwhile, so the
-        # draws are those of drawing it here, before the render)
-        draw = None
+        levels = None
         if sigma > 0:
-            draw = worker().submit(draw_noise_levels, self.np_random, rig.height_px, rig.width_px)
+            levels = draw_noise_levels(self.np_random, rig.height_px, rig.width_px)
+        watch.lap("noise")
         head = self.head_pose
         self._clean_pair = self._get_renderer().render_stereo(head)
-        levels = None if draw is None else draw.result()
         watch.lap("render")
         # the pipeline sees the noisy grey images; the noisy RGB pair (the same noise on every
         # channel) is made only when someone asks for it (images observation, render_stereo)

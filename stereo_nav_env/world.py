@@ -123,6 +123,10 @@ class StepResult:
 
 
 def _wrap(angle: float) -> float:
+    """``angle`` (radians) wrapped to (-pi, pi] by the exact ``math.remainder``: the physics' own
+    wrap of the body's unbounded pymunk angle (``modeling.geometry.wrap_angle``'s
+    ``(a + pi) % 2pi - pi`` rounds and maps to [-pi, pi), so it would change the poses' last bits
+    and with them every observation of a rollout)."""
     wrapped = math.remainder(angle, 2 * math.pi)
     return math.pi if wrapped == -math.pi else wrapped
 
