@@ -65,7 +65,9 @@ def test_whole_sub_configurations_are_accepted_and_flat_keys_override_them() -> 
         ({"max_speed_m_s": 100.0}, "substeps"),  # the world refuses tunnelling speeds
     ],
 )
-def test_unknown_or_invalid_values_are_value_errors_naming_them(kwargs, name) -> None:
+def test_unknown_or_invalid_values_are_value_errors_naming_them(
+    kwargs: dict[str, object], name: str
+) -> None:
     with pytest.raises(ValueError, match=name):
         EnvConfig.from_kwargs(**kwargs)
 
@@ -74,10 +76,17 @@ def test_configs_are_frozen_slotted_and_keyword_only() -> None:
     cfg = EnvConfig()
     with pytest.raises(dataclasses.FrozenInstanceError):
         cfg.scenario = "two_gaps"  # type: ignore[misc]
-    for cls in (EnvConfig, WorldConfig, CameraConfig, ObservationConfig, RewardConfig):
+    classes: tuple[type, ...] = (
+        EnvConfig,
+        WorldConfig,
+        CameraConfig,
+        ObservationConfig,
+        RewardConfig,
+    )
+    for cls in classes:
         assert hasattr(cls, "__slots__")
         with pytest.raises(TypeError):
-            cls(1)  # type: ignore[misc]
+            cls(1)
 
 
 def test_derived_values_are_properties() -> None:
