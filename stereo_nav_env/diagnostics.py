@@ -204,7 +204,8 @@ def _near(points: FloatArray, cov: FloatArray, target: FloatArray) -> NDArray[np
     dx, dy = points[:, 0] - target[0], points[:, 1] - target[1]
     det = c00 * c11 - c01 * c10
     m2 = c11 * (dx * dx) - 2 * c01 * dx * dy + c00 * (dy * dy)
-    return m2 / det <= _CHI2_2_99
+    near: NDArray[np.bool_] = m2 / det <= _CHI2_2_99
+    return near
 
 
 def _gap_figures(model: EnvironmentModel, truth: GroundTruth) -> dict[str, float]:

@@ -10,7 +10,7 @@ is computed (:mod:`.rewards`, :mod:`.geodesic`) and the model is compared with t
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, cast
 
 import gymnasium as gym
 import numpy as np
@@ -213,7 +213,9 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self.config = EnvConfig.from_kwargs(**kwargs)
         self.rig: StereoRig = self.config.rig
         self.action_space = self._make_action_space()
-        self.observation_space = observation_space(self.config.observation, self.rig)
+        self.observation_space = cast(
+            spaces.Space[Obs], observation_space(self.config.observation, self.rig)
+        )
         self._fixed_scene: Scene | None = (
             None if self.config.is_generated else load_scenario(self.config.scenario)
         )
@@ -233,7 +235,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self._return = 0.0
 
     # ------------------------------------------------------------------ actions
-    def _make_action_space(self) -> spaces.Space:
+    def _make_action_space(self) -> spaces.Space[Any]:
         return spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
 
     def _command(self, action: Any) -> NDArray[np.float64]:
@@ -505,7 +507,7 @@ class StereoNavDiscreteEnv(StereoNavEnv):
     :data:`stereo_nav_env.actions.DISCRETE_ACTIONS`.
     """
 
-    def _make_action_space(self) -> spaces.Space:
+    def _make_action_space(self) -> spaces.Space[Any]:
         return spaces.Discrete(len(DISCRETE_ACTIONS))
 
     def _command(self, action: Any) -> NDArray[np.float64]:

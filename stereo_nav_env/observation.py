@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -86,7 +87,7 @@ def region_bounds(cfg: ObservationConfig) -> tuple[Float32Array, Float32Array]:
 def observation_space(cfg: ObservationConfig, rig: StereoRig) -> spaces.Dict:
     """The ``Dict`` observation space for ``cfg`` (keys in the module docstring)."""
     G = np.float32(GOAL_RANGE_M)
-    fields: dict[str, spaces.Space] = {
+    fields: dict[str, spaces.Space[Any]] = {
         "goal": spaces.Box(
             low=np.array([-G, -G, 0, -_PI32], dtype=np.float32),
             high=np.array([G, G, G * np.float32(2.0), _PI32], dtype=np.float32),
@@ -173,7 +174,7 @@ def _region_table(
 
 def pack_model(
     model: EnvironmentModel, robot_pose: tuple[float, float, float], cfg: ObservationConfig
-) -> dict[str, NDArray]:
+) -> dict[str, NDArray[Any]]:
     """The model fields of the observation: ``situation_probs``, ``critical_regions``, ``raster``.
 
     Args:

@@ -172,8 +172,8 @@ class World:
                 shape.collision_type = _OBSTACLE
                 shapes.append(shape)
         self.space.add(*shapes)
-        self.body: pymunk.Body | None = None
-        self.shape: pymunk.Circle | None = None
+        self.body = pymunk.Body(10.0, float("inf"))  # replaced and added to the space by reset()
+        self.shape = pymunk.Circle(self.body, self.config.robot_radius_m)
         self._pan = 0.0
         self.reset()
 
@@ -187,7 +187,7 @@ class World:
             if not all(math.isfinite(float(v)) for v in value):
                 raise ValueError(f"{name} must be finite, got {value!r}")
         # a fresh body: cached contacts of the old one would push it with warm-started impulses
-        if self.body is not None:
+        if self.body in self.space.bodies:
             self.space.remove(self.body, self.shape)
         self.body = pymunk.Body(10.0, float("inf"))
         self.body.position = (float(x), float(y))
