@@ -10,7 +10,6 @@ import math
 
 import numpy as np
 import pytest
-from tests.agents.synthetic import model_of, wall_segments
 
 from agents.base import ControlLimits
 from agents.decision import (
@@ -21,6 +20,7 @@ from agents.decision import (
     value_of_information,
 )
 from agents.navigator import Mode, NavigatorConfig, PlannerCore
+from tests.agents.synthetic import model_of, wall_segments
 
 
 def _core(policy: str, bounds, goal, **kw) -> PlannerCore:
@@ -168,7 +168,7 @@ def test_a_bump_with_a_measured_normal_marks_the_face_not_across_the_heading() -
 
 def test_the_follower_does_not_turn_round_for_a_step_back() -> None:
     """A route that steps back to a cell behind the robot and then passes it again."""
-    from agents.routes import PathFollower
+    from agents.follower import PathFollower
 
     route = np.array([[1.0, 1.0], [0.9, 1.0], [0.8, 1.0], [1.0, 1.02], [2.0, 1.0]])
     kw = {"max_speed_mps": 0.5, "max_turn_rate_rps": math.pi / 2, "dt_s": 0.1, "lookahead_m": 0.35}
@@ -192,7 +192,7 @@ def test_forgetting_old_bumps_reopens_a_map_they_closed(far_gap) -> None:
 
 def test_the_gaze_point_lies_round_the_next_corner_of_the_route() -> None:
     """The planner points its head at the route 1 m ahead: round a corner 0.5 m ahead."""
-    from agents.routes import PathFollower
+    from agents.follower import PathFollower
 
     follower = PathFollower(max_speed_mps=0.5, max_turn_rate_rps=math.pi / 2, dt_s=0.1)
     route = np.array([[0.0, 0.0], [0.5, 0.0], [0.5, -2.0]])
