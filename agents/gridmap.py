@@ -29,6 +29,7 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
+from modeling.geometry import wrap_angle
 from modeling.model import EnvironmentModel, Situation
 
 __all__ = [
@@ -202,10 +203,6 @@ def rasterize_obstacles(
     )
 
 
-def _wrap(angle: FloatArray | float) -> FloatArray | float:
-    return (np.asarray(angle) + math.pi) % (2 * math.pi) - math.pi
-
-
 def visible_mask(
     spec: GridSpec, model: EnvironmentModel, *, max_range_m: float, margin_rad: float = 0.05
 ) -> BoolArray:
@@ -215,7 +212,7 @@ def visible_mask(
     X, Y = spec.centers()
     dx, dy = X - vx, Y - vy
     dist = np.hypot(dx, dy)
-    ang = np.abs(_wrap(np.arctan2(dy, dx) - heading))
+    ang = np.abs(wrap_angle(np.arctan2(dy, dx) - heading))
     mask = (dist <= max_range_m) & (ang <= obs.fov_rad / 2 - margin_rad) & (dist > 0.05)
     occ = model.occluded_geometry
     if occ is None and model.occluded:
@@ -486,7 +483,7 @@ class GateMemory:
             mid = g.midpoint
             rel = mid - vp[:2]
             dist = float(np.hypot(*rel))
-            bearing = abs(float(_wrap(math.atan2(rel[1], rel[0]) - vp[2])))
+            bearing = abs(float(wrap_angle(math.atan2(rel[1], rel[0]) - vp[2])))
             if dist > min(self.max_range_m, 4.5) or bearing > obs.fov_rad / 2 - margin:
                 continue
             if occ is not None and not occ.is_empty and shapely.contains_xy(occ, *mid):
