@@ -211,7 +211,8 @@ def run_episode(agent_name: str, spec: EpisodeSpec, cfg: SuiteConfig) -> Episode
             success = bool(info.get("is_success", False))
             if terminated or truncated:
                 break
-        scene = str(env.unwrapped.scene.name)
+        base: Any = env.unwrapped
+        scene = str(base.scene.name)
     finally:
         agent.close()
         env.close()

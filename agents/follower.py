@@ -78,8 +78,9 @@ class PathFollower:
     def _lookahead_point(
         self, here: FloatArray, pts: FloatArray, lookahead_m: float | None = None
     ) -> FloatArray:
+        end: FloatArray = pts[-1]
         if len(pts) == 1:
-            return pts[0]
+            return end
         seg_a, seg_b = pts[:-1], pts[1:]
         d = seg_b - seg_a
         length2 = np.maximum((d * d).sum(axis=1), 1e-12)
@@ -90,14 +91,15 @@ class PathFollower:
         k = int(near[-1]) if near.size else int(np.argmin(dist))
         # Walk forward along the polyline by the look-ahead distance from the closest point.
         remaining = self.lookahead_m if lookahead_m is None else lookahead_m
-        point = closest[k]
+        point: FloatArray = closest[k]
         for i in range(k, len(seg_b)):
             step = float(np.linalg.norm(seg_b[i] - point))
             if step >= remaining:
-                return point + (seg_b[i] - point) * (remaining / max(step, 1e-12))
+                ahead: FloatArray = point + (seg_b[i] - point) * (remaining / max(step, 1e-12))
+                return ahead
             remaining -= step
             point = seg_b[i]
-        return pts[-1]
+        return end
 
 
 def pan_towards(

@@ -141,7 +141,8 @@ def _line_points(lines: FloatArray, step_m: float) -> FloatArray:
     t = np.concatenate([np.linspace(0.0, 1.0, c) for c in counts])
     which = np.repeat(np.arange(lines.shape[0]), counts)
     a, b = lines[which, 0], lines[which, 1]
-    return a + (b - a) * t[:, None]
+    points: FloatArray = a + (b - a) * t[:, None]
+    return points
 
 
 def _obstacle_lines(situation: Situation) -> FloatArray:
@@ -323,7 +324,8 @@ class OccupancyMemory:
 
     def occupied(self) -> BoolArray:
         """(ny, nx) cells taken as obstacles: positive log-odds or bumped."""
-        return (self.log_odds > 0.0) | (self.bumps != -1)
+        occupied: BoolArray = (self.log_odds > 0.0) | (self.bumps != -1)
+        return occupied
 
     def forget(self, before_step: int) -> None:
         """Forget what was seen, and the bumps made before ``before_step`` (not the border)."""
@@ -360,7 +362,8 @@ class Gate:
     @property
     def midpoint(self) -> FloatArray:
         """(2,) midpoint of the narrowest relation."""
-        return self.ends.mean(axis=0)
+        mid: FloatArray = self.ends.mean(axis=0)
+        return mid
 
     @property
     def direction(self) -> FloatArray:

@@ -23,11 +23,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.sparse.csgraph import dijkstra
 
 from agents.base import ControlLimits
 from agents.config import NavigatorConfig
-from agents.costmap import CostGrid, GateEdge, cost_to_go
+from agents.costmap import CostGrid, GateEdge, cost_from, cost_to_go
 from agents.decision import (
     GateCosts,
     expected_after_measurement,
@@ -160,7 +159,7 @@ def best_information(
     here = np.array([x, y])
     cap = config.unreachable_cost_m
     m = plan.grid.matrix(plan.weights)
-    from_robot, from_pred = dijkstra(m, directed=True, indices=plan.start, return_predecessors=True)
+    from_robot, from_pred = cost_from(m, plan.start)
     look_gain, approach_gain = config.min_gain_m, config.min_approach_gain_m
     look: InformationChoice | None = None
     approach: InformationChoice | None = None
@@ -238,7 +237,7 @@ def best_information(
 
 
 def _route_to(
-    plan: SituationPlan, pred: NDArray[np.int32], cell: int, here: FloatArray
+    plan: SituationPlan, pred: NDArray[np.int64], cell: int, here: FloatArray
 ) -> FloatArray:
     """(n, 2) the shortest route from the robot at ``here`` to ``cell``, world metres."""
     nodes = [cell]

@@ -38,11 +38,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.sparse.csgraph import dijkstra
 
 from agents.base import ControlLimits
 from agents.config import NavigatorConfig, Policy
-from agents.costmap import CostGrid, cost_to_go, path_from
+from agents.costmap import CostGrid, cost_from, cost_to_go, path_from
 from agents.gridmap import (
     Gate,
     GateMemory,
@@ -333,7 +332,7 @@ class PlannerCore:
             return w
 
         exp_w = weights({})
-        from_start = dijkstra(grid.matrix(open_w), directed=True, indices=start)
+        from_start, _ = cost_from(grid.matrix(open_w), start)
         best = float(value[start])
         via = sorted(
             (
@@ -470,7 +469,7 @@ class PlannerCore:
         if not valid:
             self._prev_nodes = []
             return Decision(mode=Mode.NONE, waypoints=np.array([here, self.goal]))
-        probs = np.array([sits[k].probability if sits[k] is not None else 1.0 for k, _ in valid])
+        probs = np.array([1.0 if (sit := sits[k]) is None else sit.probability for k, _ in valid])
         probs = probs / probs.sum()
         routes = {k: self._route_nodes(pl) for k, pl in valid}
         scores: dict[int, float] = {}

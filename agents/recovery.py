@@ -211,7 +211,7 @@ class Recovery:
         blocked = meant - (here - np.array([x0, y0]))
         size = float(np.hypot(*blocked))
         if size > max(1e-3, 0.05 * float(np.hypot(*meant))):
-            normal = -blocked / size
+            normal: FloatArray = -blocked / size
             self._contacts.append((step, normal))
             return normal
         if self._last_forward != 0.0:
