@@ -49,6 +49,7 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
+from modeling.geometry import to_robot_frame
 from modeling.model import EnvironmentModel
 from modeling.rig import StereoRig
 from stereo_nav_env.config import REGION_FEATURES, ObservationConfig
@@ -68,14 +69,6 @@ Float32Array = NDArray[np.float32]
 GOAL_RANGE_M = 100.0
 """Bound of the goal coordinates, metres (scenes are far smaller)."""
 _PI32 = np.float32(math.pi)
-
-
-def to_robot_frame(points: FloatArray, robot_pose: tuple[float, float, float]) -> FloatArray:
-    """World points (..., 2) to the robot frame (..., 2), metres."""
-    x, y, heading = robot_pose
-    c, s = math.cos(heading), math.sin(heading)
-    d = np.asarray(points, dtype=np.float64) - np.array([x, y])
-    return np.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]], axis=-1)
 
 
 @functools.lru_cache(maxsize=16)

@@ -21,7 +21,9 @@ from stereo_nav_env.perception import (
     draw_noise_levels,
     draw_pixel_noise,
     noise_of_levels,
+    noise_of_levels_reference,
     noisy_grey,
+    noisy_grey_reference,
     perceive,
     structurally_equal,
 )
@@ -65,8 +67,8 @@ def test_adding_noise_saturates_and_keeps_the_grey_level_noise() -> None:
 def test_noise_levels_are_the_generators_own_uint16_draws(
     height: int, width: int, pending_half: bool
 ) -> None:
-    # the fast path (raw 64-bit outputs) and the fallbacks (a 32-bit half pending, a count not a
-    # multiple of 4) give the values and the generator state of rng.integers itself
+    # whatever the generator's state (a 32-bit half pending, any count), the draws and the state
+    # the generator is left in are those of rng.integers itself
     fast, slow = np.random.default_rng(7), np.random.default_rng(7)
     if pending_half:
         for rng in (fast, slow):
@@ -102,6 +104,20 @@ def test_noisy_grey_is_the_grey_image_plus_the_noise_saturated() -> None:
         noisy_grey(rgb[..., 0], levels, 2.0)
     with pytest.raises(ValueError, match="levels"):
         noisy_grey(rgb, levels[:-1], 2.0)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_compiled_noise_kernels_equal_their_numpy_references(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    height, width = int(rng.integers(1, 40)), int(rng.integers(1, 40))
+    rgb = rng.integers(0, 256, (height, width, 3), dtype=np.uint8)
+    levels = draw_noise_levels(rng, height, width)
+    sigma = float(rng.uniform(0.1, 60.0))
+    want = noise_of_levels_reference(levels, sigma)
+    assert want.dtype == np.int16 and np.array_equal(noise_of_levels(levels, sigma), want)
+    for lv in levels:
+        got, ref = noisy_grey(rgb, lv, sigma), noisy_grey_reference(rgb, lv, sigma)
+        assert got.dtype == ref.dtype == np.uint8 and np.array_equal(got, ref)
 
 
 def _model(shift: float = 0.0) -> EnvironmentModel:
