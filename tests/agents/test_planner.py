@@ -20,6 +20,7 @@ from agents.decision import (
     value_of_information,
 )
 from agents.navigator import Mode, NavigatorConfig, PlannerCore
+from stereo_nav_env.config import EnvConfig
 from tests.agents.synthetic import model_of, wall_segments
 
 
@@ -27,7 +28,10 @@ def _core(policy: str, bounds, goal, **kw) -> PlannerCore:
     """A planner core that maps everything the synthetic observations hold (8 m range)."""
     kw.setdefault("obstacle_range_m", 8.0)
     core = PlannerCore(
-        bounds, np.asarray(goal, float), ControlLimits(), NavigatorConfig(policy=policy, **kw)
+        bounds,
+        np.asarray(goal, float),
+        ControlLimits.from_config(EnvConfig()),
+        NavigatorConfig(policy=policy, **kw),
     )
     core.memory.insert_range_m = 8.0
     return core
