@@ -6,9 +6,8 @@ asked for one action per step (``act(obs, info)``): a ``(3,)`` float32 array in 
 
 The environment access of the scripted agents goes through the few functions of this module
 (:func:`robot_pose`, :func:`goal_xy`, :func:`room_bounds`, :func:`control_limits`,
-:func:`model_of`), so that when the environment's public API grows (a public robot pose,
-``info["model"]``) only this module changes. :func:`model_of` contains the one temporary fallback:
-while ``info`` has no ``"model"`` it renders the stereo pair itself and runs the modeling pipeline.
+:func:`model_of`), which read the env's public API: ``env.unwrapped.robot_pose``, ``head_pose``,
+``scene`` and ``config`` (an ``EnvConfig``), and ``info["model"]``.
 """
 
 from __future__ import annotations
@@ -16,12 +15,15 @@ from __future__ import annotations
 import abc
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling.model import EnvironmentModel, build_model
+from modeling.model import EnvironmentModel
+
+if TYPE_CHECKING:
+    from stereo_nav_env.config import EnvConfig
 
 __all__ = [
     "LOOK_THRESHOLD",
@@ -99,7 +101,7 @@ class Agent(abc.ABC):
 # ---------------------------------------------------------------------------- environment access
 @dataclass(frozen=True, slots=True, kw_only=True)
 class ControlLimits:
-    """How the env scales normalised actions.
+    """How the env scales normalised actions, and the robot's size (from its configuration).
 
     Attributes:
         max_speed_m_s: Forward speed at action[0] = 1, m/s.
@@ -112,118 +114,73 @@ class ControlLimits:
         fov_rad: Horizontal field of view of the cameras, radians.
     """
 
-    max_speed_m_s: float = 0.5
-    max_turn_rate_rad_s: float = math.pi / 2
-    pan_limit_rad: float = math.pi / 2
-    max_pan_rate_rad_s: float = math.pi / 2
-    dt_s: float = 0.1
-    robot_width_m: float = 0.5
-    goal_radius_m: float = 0.3
-    fov_rad: float = math.radians(64.0)
+    max_speed_m_s: float
+    max_turn_rate_rad_s: float
+    pan_limit_rad: float
+    max_pan_rate_rad_s: float
+    dt_s: float
+    robot_width_m: float
+    goal_radius_m: float
+    fov_rad: float
+
+    @classmethod
+    def from_config(cls, config: EnvConfig) -> ControlLimits:
+        """The limits of an env configured by ``config`` (``env.unwrapped.config``)."""
+        world = config.world
+        return cls(
+            max_speed_m_s=float(world.max_speed_m_s),
+            max_turn_rate_rad_s=float(world.max_turn_rate_rad_s),
+            pan_limit_rad=float(world.pan_limit_rad),
+            max_pan_rate_rad_s=float(world.max_pan_rate_rad_s),
+            dt_s=float(world.dt_s),
+            robot_width_m=float(world.robot_width_m),
+            goal_radius_m=float(config.goal_radius_m),
+            fov_rad=float(config.rig.hfov_rad),
+        )
 
 
-def _base(env: Any) -> Any:
-    return getattr(env, "unwrapped", env)
+def _scene(env: Any) -> Any:
+    scene = env.unwrapped.scene
+    if scene is None:
+        raise RuntimeError("the environment has no scene yet; reset it first")
+    return scene
 
 
 def robot_pose(env: Any) -> tuple[float, float, float, float]:
     """``(x_m, y_m, heading_rad, pan_rad)`` of the robot now, world frame.
 
     Reads the public ``env.unwrapped.robot_pose`` (x, y, heading) and ``head_pose`` (its heading
-    minus the body's is the pan); falls back to the simulator's state for older environments.
+    minus the body's is the pan).
     """
-    u = _base(env)
-    pose = getattr(u, "robot_pose", None)
-    if pose is not None and not callable(pose):
-        x, y, heading = (float(v) for v in tuple(pose)[:3])
-        head = getattr(u, "head_pose", None)
-        pan = (
-            0.0 if head is None else math.remainder(float(head.heading_rad) - heading, 2 * math.pi)
-        )
-        return x, y, heading, pan
-    world = getattr(u, "world", None) or getattr(u, "_world", None)
-    if world is None:
-        raise RuntimeError("the environment exposes no robot pose; reset it first")
-    return _pose_tuple(world.state)
-
-
-def _pose_tuple(state: Any) -> tuple[float, float, float, float]:
-    if hasattr(state, "x_m"):
-        return (
-            float(state.x_m),
-            float(state.y_m),
-            float(state.heading_rad),
-            float(getattr(state, "pan_rad", 0.0)),
-        )
-    arr = np.asarray(state, dtype=np.float64).reshape(-1)
-    pan = float(arr[3]) if arr.shape[0] > 3 else 0.0
-    return float(arr[0]), float(arr[1]), float(arr[2]), pan
-
-
-def _scene(env: Any) -> Any:
-    u = _base(env)
-    scene = getattr(u, "scene", None) or getattr(u, "_scene", None)
-    if scene is None:
-        raise RuntimeError("the environment exposes no scene; reset it first")
-    return scene
+    u = env.unwrapped
+    x, y, heading = (float(v) for v in u.robot_pose)
+    pan = math.remainder(float(u.head_pose.heading_rad) - heading, 2 * math.pi)
+    return x, y, heading, pan
 
 
 def goal_xy(env: Any) -> FloatArray:
     """(2,) the goal, world frame, metres."""
-    goal = getattr(_base(env), "goal", None)
-    if goal is None or callable(goal):
-        goal = _scene(env).goal
-    return np.asarray(goal, dtype=np.float64).reshape(2)
+    return np.asarray(_scene(env).goal, dtype=np.float64).reshape(2)
 
 
 def room_bounds(env: Any) -> tuple[float, float, float, float]:
     """``(xmin, ymin, xmax, ymax)`` of the floor: the rough map the agents are given."""
-    return tuple(float(v) for v in _scene(env).bounds)  # type: ignore[return-value]
+    xmin, ymin, xmax, ymax = (float(v) for v in _scene(env).bounds)
+    return xmin, ymin, xmax, ymax
 
 
 def control_limits(env: Any) -> ControlLimits:
-    """The action scales and robot size of ``env``'s configuration."""
-    u = _base(env)
-    cfg = getattr(u, "config", None)
-    rig = getattr(u, "rig", None)
-    fov = rig.hfov_rad if rig is not None else None
-    if cfg is None:
-        return ControlLimits() if fov is None else ControlLimits(fov_rad=fov)
-    kw: dict[str, float] = {
-        name: float(getattr(cfg, name))
-        for name in (
-            "max_speed_m_s",
-            "max_turn_rate_rad_s",
-            "pan_limit_rad",
-            "max_pan_rate_rad_s",
-            "dt_s",
-            "robot_width_m",
-            "goal_radius_m",
-        )
-        if hasattr(cfg, name)
-    }
-    if fov is not None:
-        kw["fov_rad"] = fov
-    return ControlLimits(**kw)
+    """The action scales and robot size of ``env``'s configuration (``env.unwrapped.config``)."""
+    return ControlLimits.from_config(env.unwrapped.config)
 
 
 def model_of(env: Any, info: dict[str, Any]) -> EnvironmentModel:
-    """The environment model of the latest observation: ``info["model"]`` (the contract).
+    """The environment model of the latest observation: ``info["model"]`` (the env's contract).
 
-    Until the environment puts it there, the model is computed here from the current stereo pair
-    (:func:`_model_from_stereo`); remove that fallback once ``info["model"]`` always exists.
+    Raises:
+        ValueError: When ``info`` holds no model.
     """
-    model = info.get("model") if isinstance(info, dict) else None
-    if isinstance(model, EnvironmentModel):
-        return model
-    return _model_from_stereo(env)
-
-
-def _model_from_stereo(env: Any) -> EnvironmentModel:
-    """Fallback while ``info["model"]`` is missing: render, match, triangulate, build the model."""
-    from modeling.pipeline import stereo_to_floor
-
-    u = _base(env)
-    left, right = u.render_stereo()
-    observation = stereo_to_floor(left, right, u.rig, u.head_pose)
-    return build_model(observation, control_limits(env).robot_width_m)
+    model = info.get("model")
+    if not isinstance(model, EnvironmentModel):
+        raise ValueError(f"info['model'] must be an EnvironmentModel, got {type(model).__name__}")
+    return model

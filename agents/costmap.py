@@ -26,7 +26,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from agents.gridmap import Gate, GridSpec, _line_points
 
-__all__ = ["CostGrid", "GateEdge", "cost_to_go", "path_from", "path_length_m"]
+__all__ = ["CostGrid", "GateEdge", "cost_from", "cost_to_go", "path_from", "path_length_m"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -198,7 +198,7 @@ class CostGrid:
             return math.inf
         step = self.spec.resolution_m * (math.sqrt(2.0) if ru != rv and cu != cv else 1.0)
         c = self.cost.reshape(-1)
-        return step * 0.5 * (c[u] + c[v])
+        return float(step * 0.5 * (c[u] + c[v]))
 
     def nearest_free(self, xy: NDArray[np.floating], max_m: float = 1.0) -> int | None:
         """The unblocked cell nearest to ``xy`` within ``max_m`` (``None`` if none)."""
@@ -226,7 +226,19 @@ def cost_to_go(matrix: csr_matrix, target: int) -> tuple[FloatArray, IntArray]:
 
     Dijkstra on the reversed graph (``matrix.T``).
     """
-    dist, pred = dijkstra(matrix.T.tocsr(), directed=True, indices=target, return_predecessors=True)
+    return _dijkstra(matrix.T.tocsr(), target)
+
+
+def cost_from(matrix: csr_matrix, source: int) -> tuple[FloatArray, IntArray]:
+    """Costs from ``source`` to every node (N,), and each node's previous node on the way there
+    (-9999: none)."""
+    return _dijkstra(matrix, source)
+
+
+def _dijkstra(matrix: csr_matrix, index: int) -> tuple[FloatArray, IntArray]:
+    # scipy-stubs 1.17 types ``indices`` as arrays only (scipy takes an int and then returns
+    # 1-D arrays): the ignore is for those stubs.
+    dist, pred = dijkstra(matrix, directed=True, indices=index, return_predecessors=True)  # type: ignore[call-overload]
     return dist, pred
 
 

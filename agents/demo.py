@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 __all__ = ["DemoResult", "run_demo"]
 
@@ -99,14 +99,15 @@ def run_demo(
         "StereoNav-v0", scenario=scenario, render_mode="rgb_array", terminate_on_collision=False
     )
     agent = make_agent(agent_name, env)
-    frames: list[NDArray[np.uint8]] = []
+    frames: list[ArrayLike] = []
     snapshots: list[tuple[int, Any, tuple[float, float, float, float]]] = []
     try:
         obs, info = env.reset(seed=seed)
         agent.reset(env, seed=seed)
         route = true_shortest_route(env)
-        footprints = env.unwrapped.ground_truth_footprints()
-        goal_radius = float(env.unwrapped.config.goal_radius_m)
+        base: Any = env.unwrapped
+        footprints = base.ground_truth_footprints()
+        goal_radius = float(base.config.goal_radius_m)
         reference = math.nan if route is None else max(route.length_m - goal_radius, 1e-6)
         frames.append(_frame(env))
         pose = robot_pose(env)

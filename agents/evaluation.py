@@ -32,7 +32,7 @@ import multiprocessing
 import os
 import pathlib
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -211,7 +211,8 @@ def run_episode(agent_name: str, spec: EpisodeSpec, cfg: SuiteConfig) -> Episode
             success = bool(info.get("is_success", False))
             if terminated or truncated:
                 break
-        scene = str(env.unwrapped.scene.name)
+        base: Any = env.unwrapped
+        scene = str(base.scene.name)
     finally:
         agent.close()
         env.close()
@@ -295,7 +296,7 @@ def _record(out: dict[str, list[EpisodeResult]], result: EpisodeResult, bar: Any
     )
 
 
-def summarize(results: dict[str, Iterable[EpisodeResult]]) -> dict[str, dict[str, float | int]]:
+def summarize(results: Mapping[str, Iterable[EpisodeResult]]) -> dict[str, dict[str, float | int]]:
     """The JSON figures of ARCHITECTURE.md for each agent (keys :data:`SUMMARY_KEYS`)."""
     summary: dict[str, dict[str, float | int]] = {}
     for name, episodes in results.items():
@@ -318,7 +319,7 @@ def summarize(results: dict[str, Iterable[EpisodeResult]]) -> dict[str, dict[str
     return summary
 
 
-def episode_records(results: dict[str, Iterable[EpisodeResult]]) -> list[dict[str, Any]]:
+def episode_records(results: Mapping[str, Iterable[EpisodeResult]]) -> list[dict[str, Any]]:
     """Every episode as a JSON-friendly dict (for a details file)."""
     return [dataclasses.asdict(e) for eps in results.values() for e in eps]
 

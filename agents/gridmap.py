@@ -29,6 +29,7 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
+from modeling.geometry import wrap_angle
 from modeling.model import EnvironmentModel, Situation
 
 __all__ = [
@@ -140,7 +141,8 @@ def _line_points(lines: FloatArray, step_m: float) -> FloatArray:
     t = np.concatenate([np.linspace(0.0, 1.0, c) for c in counts])
     which = np.repeat(np.arange(lines.shape[0]), counts)
     a, b = lines[which, 0], lines[which, 1]
-    return a + (b - a) * t[:, None]
+    points: FloatArray = a + (b - a) * t[:, None]
+    return points
 
 
 def _obstacle_lines(situation: Situation) -> FloatArray:
@@ -202,10 +204,6 @@ def rasterize_obstacles(
     )
 
 
-def _wrap(angle: FloatArray | float) -> FloatArray | float:
-    return (np.asarray(angle) + math.pi) % (2 * math.pi) - math.pi
-
-
 def visible_mask(
     spec: GridSpec, model: EnvironmentModel, *, max_range_m: float, margin_rad: float = 0.05
 ) -> BoolArray:
@@ -215,7 +213,7 @@ def visible_mask(
     X, Y = spec.centers()
     dx, dy = X - vx, Y - vy
     dist = np.hypot(dx, dy)
-    ang = np.abs(_wrap(np.arctan2(dy, dx) - heading))
+    ang = np.abs(wrap_angle(np.arctan2(dy, dx) - heading))
     mask = (dist <= max_range_m) & (ang <= obs.fov_rad / 2 - margin_rad) & (dist > 0.05)
     occ = model.occluded_geometry
     if occ is None and model.occluded:
@@ -326,7 +324,8 @@ class OccupancyMemory:
 
     def occupied(self) -> BoolArray:
         """(ny, nx) cells taken as obstacles: positive log-odds or bumped."""
-        return (self.log_odds > 0.0) | (self.bumps != -1)
+        occupied: BoolArray = (self.log_odds > 0.0) | (self.bumps != -1)
+        return occupied
 
     def forget(self, before_step: int) -> None:
         """Forget what was seen, and the bumps made before ``before_step`` (not the border)."""
@@ -363,7 +362,8 @@ class Gate:
     @property
     def midpoint(self) -> FloatArray:
         """(2,) midpoint of the narrowest relation."""
-        return self.ends.mean(axis=0)
+        mid: FloatArray = self.ends.mean(axis=0)
+        return mid
 
     @property
     def direction(self) -> FloatArray:
@@ -486,7 +486,7 @@ class GateMemory:
             mid = g.midpoint
             rel = mid - vp[:2]
             dist = float(np.hypot(*rel))
-            bearing = abs(float(_wrap(math.atan2(rel[1], rel[0]) - vp[2])))
+            bearing = abs(float(wrap_angle(math.atan2(rel[1], rel[0]) - vp[2])))
             if dist > min(self.max_range_m, 4.5) or bearing > obs.fov_rad / 2 - margin:
                 continue
             if occ is not None and not occ.is_empty and shapely.contains_xy(occ, *mid):

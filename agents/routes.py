@@ -1,4 +1,4 @@
-"""Shortest collision-free routes among polygonal obstacles, and a path follower.
+"""Shortest collision-free routes among polygonal obstacles (the oracle's map).
 
 Routes are found on a visibility graph (shapely for the geometry, networkx for the search): the
 obstacles are inflated by the robot's radius plus a clearance, the graph's nodes are the start, the
@@ -9,7 +9,6 @@ robot up to the polygonal approximation of the inflation.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -20,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 from shapely.geometry import LineString, Point, Polygon
 from shapely.ops import unary_union
 
-__all__ = ["PathFollower", "Route", "free_space", "shortest_route"]
+__all__ = ["Route", "free_space", "shortest_route"]
 
 FloatArray = NDArray[np.float64]
 
@@ -149,81 +148,3 @@ def shortest_route(
         waypoints=waypoints,
         length_m=float(np.linalg.norm(np.diff(waypoints, axis=0), axis=1).sum()),
     )
-
-
-@dataclass(slots=True, kw_only=True)
-class PathFollower:
-    """Pure-pursuit follower turning a route into normalised (forward, turn) commands.
-
-    Attributes:
-        max_speed_mps: Speed that a forward command of 1 gives, m/s.
-        max_turn_rate_rps: Turn rate that a turn command of 1 gives, rad/s.
-        dt_s: Duration of one control step, seconds.
-        lookahead_m: Pure-pursuit look-ahead distance, metres.
-        goal_tolerance_m: Distance at which the route's end counts as reached, metres.
-        shortcut_m: Pursue from the last part of the route that passes within this much of the
-            robot (0: always from the nearest part). A re-planned route can start
-            with a short step back (to the free cell nearest to a robot standing in a margin or
-            in a doorway) and then pass the robot again; pursuing from the nearest part would
-            turn the robot round on the spot for that step, and a fresh plan a few steps later
-            can turn it back. No obstacle fits between two parts of a route this close.
-    """
-
-    max_speed_mps: float
-    max_turn_rate_rps: float
-    dt_s: float
-    lookahead_m: float = 0.4
-    goal_tolerance_m: float = 0.1
-    shortcut_m: float = 0.0
-
-    def command(self, pose: ArrayLike, waypoints: ArrayLike) -> tuple[float, float]:
-        """Forward and turn commands in [-1, 1] moving ``pose`` (x, y, heading) along the route."""
-        x, y, heading = np.asarray(pose, dtype=np.float64).reshape(3)
-        pts = np.asarray(waypoints, dtype=np.float64).reshape(-1, 2)
-        here = np.array([x, y])
-        if len(pts) == 0 or np.linalg.norm(pts[-1] - here) < self.goal_tolerance_m:
-            return 0.0, 0.0
-        target = self._lookahead_point(here, pts)
-        delta = target - here
-        bearing = math.atan2(delta[1], delta[0]) - heading
-        bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
-        turn = float(np.clip(bearing / (self.max_turn_rate_rps * self.dt_s), -1.0, 1.0))
-        distance = float(np.linalg.norm(pts[-1] - here))
-        # Slow down to turn on the spot when facing away; stop exactly at the goal.
-        alignment = max(0.0, math.cos(bearing)) ** 2
-        forward = min(1.0, distance / (self.max_speed_mps * self.dt_s)) * alignment
-        if abs(bearing) > math.radians(60):
-            forward = 0.0
-        return float(forward), turn
-
-    def point_ahead(self, here: ArrayLike, waypoints: ArrayLike, distance_m: float) -> FloatArray:
-        """(2,) the point ``distance_m`` along the route ahead of the robot at ``here``."""
-        pts = np.asarray(waypoints, dtype=np.float64).reshape(-1, 2)
-        xy = np.asarray(here, dtype=np.float64).reshape(2)
-        if len(pts) == 0:
-            return xy
-        return self._lookahead_point(xy, pts, distance_m)
-
-    def _lookahead_point(
-        self, here: FloatArray, pts: FloatArray, lookahead_m: float | None = None
-    ) -> FloatArray:
-        if len(pts) == 1:
-            return pts[0]
-        seg_a, seg_b = pts[:-1], pts[1:]
-        d = seg_b - seg_a
-        length2 = np.maximum((d * d).sum(axis=1), 1e-12)
-        t = np.clip(((here - seg_a) * d).sum(axis=1) / length2, 0.0, 1.0)
-        closest = seg_a + t[:, None] * d
-        dist = np.linalg.norm(closest - here, axis=1)
-        near = np.flatnonzero(dist <= self.shortcut_m)
-        k = int(near[-1]) if near.size else int(np.argmin(dist))
-        # Walk forward along the polyline by the look-ahead distance from the closest point.
-        remaining = self.lookahead_m if lookahead_m is None else lookahead_m
-        point = closest[k]
-        for i in range(k, len(seg_b)):
-            step = float(np.linalg.norm(seg_b[i] - point))
-            if step >= remaining:
-                return point + (seg_b[i] - point) * (remaining / max(step, 1e-12))
-            remaining -= step
-            point = seg_b[i]
-        return pts[-1]

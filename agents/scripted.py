@@ -2,7 +2,8 @@
 
 The oracle plans once per episode on the true obstacle outlines (``ground_truth_footprints()``)
 with :func:`agents.routes.shortest_route` and follows the route with the pure-pursuit
-:class:`agents.routes.PathFollower`, head straight ahead; it re-plans when it stops making progress.
+:class:`agents.follower.PathFollower`, head straight ahead; it re-plans when it stops making
+progress.
 """
 
 from __future__ import annotations
@@ -13,7 +14,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.base import Agent, control_limits, goal_xy, robot_pose, room_bounds
-from agents.routes import PathFollower, Route, shortest_route
+from agents.follower import PathFollower
+from agents.routes import Route, shortest_route
 
 __all__ = ["ORACLE_MARGINS_M", "OracleAgent", "RandomAgent", "true_shortest_route"]
 

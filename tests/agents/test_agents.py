@@ -78,7 +78,14 @@ def test_looks_are_counted_from_the_pan_target() -> None:
 
 
 def test_environment_access(small_map) -> None:
-    env = gym.make("StereoNav-v0", scenario=str(small_map), diagnostics=False)
+    env = gym.make(
+        "StereoNav-v0",
+        scenario=str(small_map),
+        diagnostics=False,
+        max_speed_m_s=0.4,
+        goal_radius_m=0.25,
+        focal_px=200.0,
+    )
     env.reset(seed=0)
     try:
         assert robot_pose(env) == pytest.approx((0.8, 1.5, 0.0, 0.0))
@@ -87,7 +94,16 @@ def test_environment_access(small_map) -> None:
         assert goal_xy(env) == pytest.approx([4.2, 1.5])
         assert room_bounds(env) == (0.0, 0.0, 5.0, 3.0)
         limits = control_limits(env)
-        assert limits == ControlLimits(fov_rad=limits.fov_rad)
-        assert limits.fov_rad == pytest.approx(2 * np.arctan2(160, 260))
+        assert limits == ControlLimits(
+            max_speed_m_s=0.4,
+            max_turn_rate_rad_s=np.pi / 2,
+            pan_limit_rad=np.pi / 2,
+            max_pan_rate_rad_s=np.pi / 2,
+            dt_s=0.1,
+            robot_width_m=0.5,
+            goal_radius_m=0.25,
+            fov_rad=limits.fov_rad,
+        )
+        assert limits.fov_rad == pytest.approx(2 * np.arctan2(160, 200))
     finally:
         env.close()

@@ -7,10 +7,10 @@ import math
 
 import numpy as np
 import pytest
-from tests.agents.synthetic import model_of, wall_segments
 
 from agents.costmap import CostGrid, cost_to_go, path_from
 from agents.gridmap import GateMemory, GridSpec, OccupancyMemory
+from tests.agents.synthetic import model_of, wall_segments
 
 
 def _at(spec: GridSpec, grid: np.ndarray, x: float, y: float) -> bool:

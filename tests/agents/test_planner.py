@@ -10,7 +10,6 @@ import math
 
 import numpy as np
 import pytest
-from tests.agents.synthetic import model_of, wall_segments
 
 from agents.base import ControlLimits
 from agents.decision import (
@@ -21,13 +20,19 @@ from agents.decision import (
     value_of_information,
 )
 from agents.navigator import Mode, NavigatorConfig, PlannerCore
+from agents.planner import expected_gate_weight
+from stereo_nav_env.config import EnvConfig
+from tests.agents.synthetic import model_of, wall_segments
 
 
 def _core(policy: str, bounds, goal, **kw) -> PlannerCore:
     """A planner core that maps everything the synthetic observations hold (8 m range)."""
     kw.setdefault("obstacle_range_m", 8.0)
     core = PlannerCore(
-        bounds, np.asarray(goal, float), ControlLimits(), NavigatorConfig(policy=policy, **kw)
+        bounds,
+        np.asarray(goal, float),
+        ControlLimits.from_config(EnvConfig()),
+        NavigatorConfig(policy=policy, **kw),
     )
     core.memory.insert_range_m = 8.0
     return core
@@ -166,18 +171,6 @@ def test_a_bump_with_a_measured_normal_marks_the_face_not_across_the_heading() -
     assert not marked(3.3, 1.8) and not marked(3.3, 2.0)  # nothing across the way ahead
 
 
-def test_the_follower_does_not_turn_round_for_a_step_back() -> None:
-    """A route that steps back to a cell behind the robot and then passes it again."""
-    from agents.routes import PathFollower
-
-    route = np.array([[1.0, 1.0], [0.9, 1.0], [0.8, 1.0], [1.0, 1.02], [2.0, 1.0]])
-    kw = {"max_speed_mps": 0.5, "max_turn_rate_rps": math.pi / 2, "dt_s": 0.1, "lookahead_m": 0.35}
-    forward, _ = PathFollower(**kw).command((1.0, 1.0, 0.0), route)
-    assert forward == 0.0  # pursues the step back: turns round on the spot
-    forward, turn = PathFollower(shortcut_m=0.15, **kw).command((1.0, 1.0, 0.0), route)
-    assert forward > 0.5 and abs(turn) < 0.5
-
-
 def test_forgetting_old_bumps_reopens_a_map_they_closed(far_gap) -> None:
     """Old bump marks closing every way leave no route (the agent then forgets them: relax)."""
     far, _ = far_gap
@@ -190,12 +183,8 @@ def test_forgetting_old_bumps_reopens_a_map_they_closed(far_gap) -> None:
     assert core.plan((1.0, 2.5, 0.0, 0.0)).mode is not Mode.NONE
 
 
-def test_the_gaze_point_lies_round_the_next_corner_of_the_route() -> None:
-    """The planner points its head at the route 1 m ahead: round a corner 0.5 m ahead."""
-    from agents.routes import PathFollower
-
-    follower = PathFollower(max_speed_mps=0.5, max_turn_rate_rps=math.pi / 2, dt_s=0.1)
-    route = np.array([[0.0, 0.0], [0.5, 0.0], [0.5, -2.0]])
-    ahead = follower.point_ahead(np.array([0.0, 0.0]), route, 1.0)
-    assert ahead == pytest.approx([0.5, -0.5])
-    assert NavigatorConfig().gaze_ahead_m > 0
+def test_the_expected_gate_weight() -> None:
+    """``L + (1 - p) max(0, C_fail + V_alt - L - V_open)``: certain, undecided, no worse."""
+    assert expected_gate_weight(1.0, 1.0, 2.0, 10.0, 3.0) == 1.0
+    assert expected_gate_weight(1.0, 0.25, 2.0, 10.0, 3.0) == pytest.approx(1.0 + 0.75 * 8.0)
+    assert expected_gate_weight(1.0, 0.25, 2.0, 0.5, 3.0) == 1.0  # the alternative is no worse
