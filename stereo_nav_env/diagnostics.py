@@ -45,8 +45,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._compiled.jit import compiled_helper, compiled_on_first_call
 from modeling.faces import FACE_SOURCE
+from modeling.geometry import wrap_angle
 from modeling.model import EnvironmentModel
 from stereo_nav_env.scenes import Scene
 
@@ -120,42 +120,25 @@ def normalised_outline_errors(points: FloatArray, cov: FloatArray, edges: FloatA
         return np.zeros(0)
     if edges.shape[0] == 0:
         return np.full(n, np.nan)
-    return _outline_errors(
-        np.ascontiguousarray(points, dtype=np.float64),
-        np.ascontiguousarray(cov, dtype=np.float64),
-        np.ascontiguousarray(edges, dtype=np.float64),
+    ax, ay = edges[:, 0, 0], edges[:, 0, 1]
+    bx, by = edges[:, 1, 0] - ax, edges[:, 1, 1] - ay
+    inv_l2 = 1.0 / np.maximum(bx * bx + by * by, 1e-18)
+    px = points[:, 0:1] - ax  # (n, E): from each edge's start to each point
+    py = points[:, 1:2] - ay
+    t = np.clip((px * bx + py * by) * inv_l2, 0.0, 1.0)
+    ex = px - t * bx  # from the nearest point on each edge to the point
+    ey = py - t * by
+    best = np.argmin(ex * ex + ey * ey, axis=1)
+    rows = np.arange(n)
+    err_x, err_y = ex[rows, best], ey[rows, best]
+    length = np.hypot(err_x, err_y)
+    on_edge = length <= 1e-12
+    safe = np.where(on_edge, 1.0, length)
+    ux, uy = err_x / safe, err_y / safe
+    var = ux * (cov[:, 0, 0] * ux + cov[:, 0, 1] * uy) + uy * (
+        cov[:, 1, 0] * ux + cov[:, 1, 1] * uy
     )
-
-
-@compiled_on_first_call
-def _outline_errors(points: FloatArray, cov: FloatArray, edges: FloatArray) -> FloatArray:
-    """:func:`normalised_outline_errors` for at least one point and one edge (one pass)."""
-    n = points.shape[0]
-    out = np.empty(n)
-    for k in range(n):
-        best_d2 = np.inf
-        best_x = 0.0
-        best_y = 0.0
-        for e in range(edges.shape[0]):
-            ax, ay = edges[e, 0, 0], edges[e, 0, 1]
-            bx, by = edges[e, 1, 0] - ax, edges[e, 1, 1] - ay
-            inv_l2 = 1.0 / max(bx * bx + by * by, 1e-18)
-            px, py = points[k, 0] - ax, points[k, 1] - ay
-            t = min(max((px * bx + py * by) * inv_l2, 0.0), 1.0)
-            ex, ey = px - t * bx, py - t * by  # from the nearest point on the edge to the point
-            d2 = ex * ex + ey * ey
-            if d2 < best_d2:
-                best_d2, best_x, best_y = d2, ex, ey
-        length = np.hypot(best_x, best_y)
-        if length > 1e-12:
-            ux, uy = best_x / length, best_y / length
-            var = ux * (cov[k, 0, 0] * ux + cov[k, 0, 1] * uy) + uy * (
-                cov[k, 1, 0] * ux + cov[k, 1, 1] * uy
-            )
-            out[k] = length / np.sqrt(max(var, 1e-18))
-        else:
-            out[k] = 0.0
-    return out
+    return np.where(on_edge, 0.0, length / np.sqrt(np.maximum(var, 1e-18)))
 
 
 def _outline_figures(model: EnvironmentModel, truth: GroundTruth) -> dict[str, float]:
@@ -212,62 +195,17 @@ def _active_items(model: EnvironmentModel) -> NDArray[np.bool_]:
     return out
 
 
-@compiled_on_first_call
-def _gap_minima(
-    gap_points: FloatArray,
-    gaps: NDArray[np.int64],
-    point_i: FloatArray,
-    cov_i: FloatArray,
-    point_j: FloatArray,
-    cov_j: FloatArray,
-    rel_i: NDArray[np.int64],
-    rel_j: NDArray[np.int64],
-    p_passable: FloatArray,
-    active: NDArray[np.bool_],
-    slack: float,
-    limit: float,
-) -> FloatArray:
-    """(len(gaps), S): for each gap, per situation, the least ``p_passable`` of the relations
-    present in it whose two closest points lie at the gap's two sides (``inf``: none).
-
-    A point (with its covariance plus ``slack`` on the diagonal) lies at a true point when its
-    squared Mahalanobis distance is at most ``limit``; a relation matches a gap either way round.
-    """
-    n_sit = active.shape[0]
-    out = np.full((gaps.shape[0], n_sit), np.inf)
-    for g in range(gaps.shape[0]):
-        ax, ay = gap_points[gaps[g], 0, 0], gap_points[gaps[g], 0, 1]
-        bx, by = gap_points[gaps[g], 1, 0], gap_points[gaps[g], 1, 1]
-        for r in range(rel_i.shape[0]):
-            forward = _near(point_i[r], cov_i[r], ax, ay, slack, limit) and _near(
-                point_j[r], cov_j[r], bx, by, slack, limit
-            )
-            if not forward and not (
-                _near(point_i[r], cov_i[r], bx, by, slack, limit)
-                and _near(point_j[r], cov_j[r], ax, ay, slack, limit)
-            ):
-                continue
-            for k in range(n_sit):
-                if active[k, rel_i[r]] and active[k, rel_j[r]]:
-                    out[g, k] = min(out[g, k], p_passable[r])
-    return out
-
-
-@compiled_helper
-def _near(
-    point: FloatArray, cov: FloatArray, tx: float, ty: float, slack: float, limit: float
-) -> bool:
-    """Whether ``point`` (2,) with covariance ``cov`` (2, 2) plus ``slack`` on its diagonal is
-    within squared Mahalanobis distance ``limit`` of ``(tx, ty)``."""
-    c00 = cov[0, 0] + slack
-    c01 = cov[0, 1] + 0.0
-    c10 = cov[1, 0] + 0.0
-    c11 = cov[1, 1] + slack
-    dx = point[0] - tx
-    dy = point[1] - ty
+def _near(points: FloatArray, cov: FloatArray, target: FloatArray) -> NDArray[np.bool_]:
+    """Whether each point (r, 2) with covariance (r, 2, 2) plus the slack ``_GAP_SLACK_M^2`` on its
+    diagonal is within squared Mahalanobis distance chi^2_2(0.99) of ``target`` (2,)."""
+    slack = _GAP_SLACK_M**2
+    c00, c11 = cov[:, 0, 0] + slack, cov[:, 1, 1] + slack
+    c01, c10 = cov[:, 0, 1], cov[:, 1, 0]
+    dx, dy = points[:, 0] - target[0], points[:, 1] - target[1]
     det = c00 * c11 - c01 * c10
     m2 = c11 * (dx * dx) - 2 * c01 * dx * dy + c00 * (dy * dy)
-    return m2 / det <= limit
+    near: NDArray[np.bool_] = m2 / det <= _CHI2_2_99
+    return near
 
 
 def _gap_figures(model: EnvironmentModel, truth: GroundTruth) -> dict[str, float]:
@@ -278,8 +216,8 @@ def _gap_figures(model: EnvironmentModel, truth: GroundTruth) -> dict[str, float
     vx, vy, heading = (float(v) for v in obs.viewpoint)
     d = truth.gap_points - np.array([vx, vy])  # (G, 2, 2)
     rng = np.hypot(d[..., 0], d[..., 1])
-    bearing = np.arctan2(d[..., 1], d[..., 0]) - heading
-    bearing = (bearing + np.pi) % (2 * np.pi) - np.pi
+    bearing = np.arctan2(d[..., 1], d[..., 0])
+    bearing = wrap_angle(bearing - heading)
     in_view = np.all((rng <= obs.max_range_m) & (np.abs(bearing) <= 0.5 * obs.fov_rad), axis=1)
     if not np.any(in_view):
         return nan
@@ -287,21 +225,16 @@ def _gap_figures(model: EnvironmentModel, truth: GroundTruth) -> dict[str, float
     sq_err: list[float] = []
     if len(rel) and model.situations:
         weights = np.array([s.probability for s in model.situations])
-        minima = _gap_minima(
-            truth.gap_points,
-            np.flatnonzero(in_view),
-            rel.point_i,
-            rel.cov_i,
-            rel.point_j,
-            rel.cov_j,
-            rel.i,
-            rel.j,
-            rel.p_passable,
-            _active_items(model),
-            _GAP_SLACK_M**2,
-            _CHI2_2_99,
-        )
-        for g, p in zip(np.flatnonzero(in_view).tolist(), minima, strict=True):
+        active = _active_items(model)
+        for g in np.flatnonzero(in_view).tolist():
+            a, b = truth.gap_points[g]
+            forward = _near(rel.point_i, rel.cov_i, a) & _near(rel.point_j, rel.cov_j, b)
+            backward = _near(rel.point_i, rel.cov_i, b) & _near(rel.point_j, rel.cov_j, a)
+            rows = np.flatnonzero(forward | backward)
+            if rows.size == 0:
+                continue
+            present = active[:, rel.i[rows]] & active[:, rel.j[rows]]  # (S, rows)
+            p = np.where(present, rel.p_passable[rows][None], np.inf).min(axis=1)
             seen = np.isfinite(p)
             if not np.any(seen) or weights[seen].sum() <= 0:
                 continue

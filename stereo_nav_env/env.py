@@ -10,14 +10,13 @@ is computed (:mod:`.rewards`, :mod:`.geodesic`) and the model is compared with t
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, cast
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from modeling._compiled.worker import worker
 from modeling.model import EnvironmentModel
 from modeling.pipeline import to_gray
 from modeling.rig import HeadPose, StereoRig
@@ -123,26 +122,37 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     ``Dict`` (K = ``num_situations`` = 8, R = ``num_regions`` = 8, F = 12, S = ``raster_size_px``
     = 64; robot frame: origin at the robot's centre, +x forward, +y left, metres):
 
-    | key                | shape        | dtype   | meaning                                     |
-    |--------------------|--------------|---------|---------------------------------------------|
-    | `situation_probs`  | (K,)         | float32 | probabilities of the K most probable        |
-    |                    |              |         | situations, descending (0: none)            |
-    | `critical_regions` | (K * R * F,) | float32 | row-major (K, R, F): each situation's       |
-    |                    |              |         | critical regions, nearest first             |
-    | `raster`           | (S, S, 3)    | uint8   | egocentric top-down raster, forward up:     |
-    |                    |              |         | expected occupancy; doubt 4p(1-p) of the    |
-    |                    |              |         | critical regions; unobserved (255 occluded, |
-    |                    |              |         | 128 outside the field of view)              |
-    | `goal`             | (4,)         | float32 | goal in the robot frame: x_m, y_m,          |
-    |                    |              |         | distance_m, bearing_rad                     |
-    | `head_pan`         | (1,)         | float32 | head pan relative to the body divided by    |
-    |                    |              |         | ``pan_limit_rad``, in [-1, 1]               |
-    | `left`, `right`    | (H, W, 3)    | uint8   | the noisy rectified pair (``observation_mode`` |
-    |                    |              |         | ``"images"`` or ``"both"``)                 |
+    | key                | shape        | dtype   | range       | meaning                       |
+    |--------------------|--------------|---------|-------------|-------------------------------|
+    | `situation_probs`  | (K,)         | float32 | [0, 1]      | probabilities of the K most   |
+    |                    |              |         |             | probable situations,          |
+    |                    |              |         |             | descending (0: none)          |
+    | `critical_regions` | (K * R * F,) | float32 | per column, | row-major (K, R, F): each     |
+    |                    |              |         | see below   | situation's critical regions, |
+    |                    |              |         |             | nearest first                 |
+    | `raster`           | (S, S, 3)    | uint8   | [0, 255]    | egocentric top-down raster,   |
+    |                    |              |         |             | forward up: expected          |
+    |                    |              |         |             | occupancy; doubt 4p(1-p) of   |
+    |                    |              |         |             | the critical regions;         |
+    |                    |              |         |             | unobserved (255 occluded, 128 |
+    |                    |              |         |             | outside the field of view)    |
+    | `goal`             | (4,)         | float32 | x, y in     | goal in the robot frame:      |
+    |                    |              |         | [-100, 100] | x_m, y_m, distance_m,         |
+    |                    |              |         | m; d [0,    | bearing_rad (``GOAL_RANGE_M`` |
+    |                    |              |         | 200]; [-pi, | = 100 m clips the lengths)    |
+    |                    |              |         | pi] rad     |                               |
+    | `head_pan`         | (1,)         | float32 | [-1, 1]     | head pan relative to the body |
+    |                    |              |         |             | divided by ``pan_limit_rad``  |
+    | `left`, `right`    | (H, W, 3)    | uint8   | [0, 255]    | the noisy rectified pair      |
+    |                    |              |         |             | (``observation_mode``         |
+    |                    |              |         |             | ``"images"`` or ``"both"``)   |
 
     The F region columns: valid, x_m, y_m (centre of the narrowest undecided relation),
     width_mean_m, width_std_m, p_passable, doubt (4p(1-p)), distance_m, bearing_rad, axis_x, axis_y
-    (unit vector across the gap), radius_m (extent of the region); padding rows are all 0. With
+    (unit vector across the gap), radius_m (extent of the region); padding rows are all 0. Their
+    ranges (L = ``feature_range_m``, 10 m; larger values clipped): valid, p_passable, doubt in
+    [0, 1]; x_m, y_m in [-L, L]; width_mean_m, width_std_m, radius_m in [0, L]; distance_m in
+    [0, 2L]; bearing_rad in [-pi, pi]; axis_x, axis_y in [-1, 1]. With
     ``observation_mode="images"`` only ``left``, ``right``, ``goal`` and ``head_pan`` are present.
     Details: :mod:`stereo_nav_env.observation`, :mod:`stereo_nav_env.raster`.
 
@@ -175,10 +185,15 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     ``gym.make("StereoNav-v0", render_mode=None, **kwargs)``: ``render_mode`` is ``None`` or
     ``"rgb_array"`` (``render()`` returns a 480 x 960 RGB frame: the true world from above with the
     model overlaid and the left image; :mod:`stereo_nav_env.viewer`). Every other keyword is a field
-    of :class:`~stereo_nav_env.config.EnvConfig` (scenario, robot and camera, noise, dynamics,
-    model), :class:`~stereo_nav_env.config.ObservationConfig` (``observation_mode``, K, R, raster)
-    or :class:`~stereo_nav_env.config.RewardConfig` (weights); an unknown or invalid one is a
-    ``ValueError`` naming it.
+    of :class:`~stereo_nav_env.config.EnvConfig` (scenario, episode end, model settings) or of one
+    of its sub-configurations, given flat (``robot_width_m=0.6``, ``num_situations=4``) or whole
+    (``world=``, ``camera=``, ``observation=``, ``rewards=``: an instance or a dict):
+    :class:`~stereo_nav_env.world.WorldConfig` (robot size, speeds, pan, ``dt_s``),
+    :class:`~stereo_nav_env.config.CameraConfig` (image size, focal length, baseline, pixel noise),
+    :class:`~stereo_nav_env.config.ObservationConfig` (``observation_mode``, K, R, raster) and
+    :class:`~stereo_nav_env.config.RewardConfig` (weights); an unknown or invalid one is a
+    ``ValueError`` naming it. The configuration is ``env.unwrapped.config`` (e.g.
+    ``config.world.max_speed_m_s``), its stereo rig ``env.unwrapped.rig``.
 
     ## Version History
     * v0: the model-based observation (situations, critical regions, raster), move-and-look
@@ -198,7 +213,9 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self.config = EnvConfig.from_kwargs(**kwargs)
         self.rig: StereoRig = self.config.rig
         self.action_space = self._make_action_space()
-        self.observation_space = observation_space(self.config.observation, self.rig)
+        self.observation_space = cast(
+            spaces.Space[Obs], observation_space(self.config.observation, self.rig)
+        )
         self._fixed_scene: Scene | None = (
             None if self.config.is_generated else load_scenario(self.config.scenario)
         )
@@ -218,7 +235,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self._return = 0.0
 
     # ------------------------------------------------------------------ actions
-    def _make_action_space(self) -> spaces.Space:
+    def _make_action_space(self) -> spaces.Space[Any]:
         return spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
 
     def _command(self, action: Any) -> NDArray[np.float64]:
@@ -260,7 +277,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             assert self._clean_pair is not None
             left, right = self._clean_pair
             if self._noise_levels is not None:
-                noise = noise_of_levels(self._noise_levels, self.config.pixel_noise_std)
+                noise = noise_of_levels(self._noise_levels, self.config.camera.pixel_noise_std)
                 left = add_pixel_noise(left, noise[0])
                 right = add_pixel_noise(right, noise[1])
             self._pair = (left, right)
@@ -279,16 +296,13 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         """Render the pair, run the pipeline, pack the observation (``self.model`` updated)."""
         cfg = self.config
         rig = self.rig
-        sigma = cfg.pixel_noise_std
-        # the pixel noise is drawn in the worker thread while the pair renders (the generator
-        # releases the interpreter lock; nothing else draws from np_random meanwhile, so the
-        # draws are those of drawing it here, before the render)
-        draw = None
+        sigma = cfg.camera.pixel_noise_std
+        levels = None
         if sigma > 0:
-            draw = worker().submit(draw_noise_levels, self.np_random, rig.height_px, rig.width_px)
+            levels = draw_noise_levels(self.np_random, rig.height_px, rig.width_px)
+        watch.lap("noise")
         head = self.head_pose
         self._clean_pair = self._get_renderer().render_stereo(head)
-        levels = None if draw is None else draw.result()
         watch.lap("render")
         # the pipeline sees the noisy grey images; the noisy RGB pair (the same noise on every
         # channel) is made only when someone asks for it (images observation, render_stereo)
@@ -306,8 +320,8 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             grey[1],
             self.rig,
             head,
-            robot_width_m=cfg.robot_width_m,
-            robot_height_m=cfg.robot_height_m,
+            robot_width_m=cfg.world.robot_width_m,
+            robot_height_m=cfg.world.robot_height_m,
             eps=cfg.eps,
             max_situations=cfg.model_max_situations,
             close_faces=cfg.close_faces,
@@ -318,7 +332,9 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         assert self.scene is not None
         obs: Obs = {
             "goal": goal_features(self.scene.goal, pose),
-            "head_pan": np.array([_pan_fraction(world.pan_rad, cfg.pan_limit_rad)], np.float32),
+            "head_pan": np.array(
+                [_pan_fraction(world.pan_rad, cfg.world.pan_limit_rad)], np.float32
+            ),
         }
         if cfg.observation.has_model:
             obs.update(pack_model(self.model, pose, cfg.observation))
@@ -362,15 +378,17 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             scene = self._fixed_scene
         else:
             scene_seed = int(self.np_random.integers(2**31 - 1))
-            scene = load_scenario(cfg.scenario, scene_seed, robot_width_m=cfg.robot_width_m)
+            scene = load_scenario(cfg.scenario, scene_seed, robot_width_m=cfg.world.robot_width_m)
         self.scene = scene
-        self.world = World(scene, cfg.world_config)
+        self.world = World(scene, cfg.world)
         if self._truth_scene is not scene:
             self._geodesic = GeodesicField.build(
-                scene, cfg.robot_radius_m, cfg.rewards.geodesic_cell_m
+                scene, cfg.world.robot_radius_m, cfg.rewards.geodesic_cell_m
             )
             self._truth = (
-                GroundTruth.of(scene, cfg.robot_width_m, max_height_m=cfg.robot_height_m)
+                GroundTruth.of(
+                    scene, cfg.world.robot_width_m, max_height_m=cfg.world.robot_height_m
+                )
                 if cfg.diagnostics
                 else None
             )
@@ -394,9 +412,9 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         cfg = self.config
         before = self._geodesic(self.robot_pose[:2])
         result = world.step(
-            command[0] * cfg.max_speed_m_s,
-            command[1] * cfg.max_turn_rate_rad_s,
-            command[2] * cfg.pan_limit_rad,
+            command[0] * cfg.world.max_speed_m_s,
+            command[1] * cfg.world.max_turn_rate_rad_s,
+            command[2] * cfg.world.pan_limit_rad,
         )
         watch.lap("physics")
         obs = self._observe(watch)
@@ -430,7 +448,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         assert self.scene is not None
         if self._view is None:
             view = MapView.of(self.scene)
-            self._view = (view, draw_background(self.scene, view, self.config.robot_width_m))
+            self._view = (view, draw_background(self.scene, view, self.config.world.robot_width_m))
         view, background = self._view
         model = self.model
         lines = [f"{self.scene.name}  step {self._steps}  return {self._return:+.2f}"]
@@ -458,7 +476,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             model=model,
             robot_pose=self.robot_pose,
             gaze_rad=state.gaze_rad,
-            robot_radius_m=self.config.robot_radius_m,
+            robot_radius_m=self.config.world.robot_radius_m,
             goal_radius_m=self.config.goal_radius_m,
             left_image=None if self._clean_pair is None else self._noisy_pair()[0],
             caption="\n".join(lines),
@@ -489,7 +507,7 @@ class StereoNavDiscreteEnv(StereoNavEnv):
     :data:`stereo_nav_env.actions.DISCRETE_ACTIONS`.
     """
 
-    def _make_action_space(self) -> spaces.Space:
+    def _make_action_space(self) -> spaces.Space[Any]:
         return spaces.Discrete(len(DISCRETE_ACTIONS))
 
     def _command(self, action: Any) -> NDArray[np.float64]:

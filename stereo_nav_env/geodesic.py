@@ -172,5 +172,6 @@ def _dijkstra(free: NDArray[np.bool_], source: tuple[int, int], cell_m: float) -
         (np.concatenate(weight), (np.concatenate(src), np.concatenate(dst))),
         shape=(rows * cols, rows * cols),
     ).tocsr()
-    out = dijkstra(graph, directed=False, indices=int(index[source]))
+    # scipy-stubs' overloads of dijkstra do not accept a csr_matrix, which it takes
+    out = dijkstra(graph, directed=False, indices=int(index[source]))  # type: ignore[call-overload]
     return np.asarray(out, dtype=np.float64).reshape(rows, cols)

@@ -44,11 +44,13 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
+from modeling.geometry import to_robot_frame
 from modeling.model import EnvironmentModel
 from modeling.rig import StereoRig
 from stereo_nav_env.config import REGION_FEATURES, ObservationConfig
@@ -70,14 +72,6 @@ GOAL_RANGE_M = 100.0
 _PI32 = np.float32(math.pi)
 
 
-def to_robot_frame(points: FloatArray, robot_pose: tuple[float, float, float]) -> FloatArray:
-    """World points (..., 2) to the robot frame (..., 2), metres."""
-    x, y, heading = robot_pose
-    c, s = math.cos(heading), math.sin(heading)
-    d = np.asarray(points, dtype=np.float64) - np.array([x, y])
-    return np.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]], axis=-1)
-
-
 @functools.lru_cache(maxsize=16)
 def region_bounds(cfg: ObservationConfig) -> tuple[Float32Array, Float32Array]:
     """``(low, high)`` (F,) float32 bounds of one region's features (read-only, cached)."""
@@ -93,7 +87,7 @@ def region_bounds(cfg: ObservationConfig) -> tuple[Float32Array, Float32Array]:
 def observation_space(cfg: ObservationConfig, rig: StereoRig) -> spaces.Dict:
     """The ``Dict`` observation space for ``cfg`` (keys in the module docstring)."""
     G = np.float32(GOAL_RANGE_M)
-    fields: dict[str, spaces.Space] = {
+    fields: dict[str, spaces.Space[Any]] = {
         "goal": spaces.Box(
             low=np.array([-G, -G, 0, -_PI32], dtype=np.float32),
             high=np.array([G, G, G * np.float32(2.0), _PI32], dtype=np.float32),
@@ -180,7 +174,7 @@ def _region_table(
 
 def pack_model(
     model: EnvironmentModel, robot_pose: tuple[float, float, float], cfg: ObservationConfig
-) -> dict[str, NDArray]:
+) -> dict[str, NDArray[Any]]:
     """The model fields of the observation: ``situation_probs``, ``critical_regions``, ``raster``.
 
     Args:

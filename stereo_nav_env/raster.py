@@ -80,7 +80,11 @@ def _obstacle_lines(situation: Situation) -> FloatArray:
 
 
 def _draw_situation(
-    situation: Situation, A: FloatArray, b: FloatArray, occ: NDArray, doubt: NDArray
+    situation: Situation,
+    A: FloatArray,
+    b: FloatArray,
+    occ: NDArray[np.uint8],
+    doubt: NDArray[np.uint8],
 ) -> None:
     """Draw one situation's obstacle lines into ``occ`` and its regions into ``doubt`` (zeroed)."""
     occ.fill(0)
@@ -109,7 +113,9 @@ def _arc_offsets(half: float) -> FloatArray:
     return out
 
 
-def _unobserved(model: EnvironmentModel, A: FloatArray, b: FloatArray, size: int) -> NDArray:
+def _unobserved(
+    model: EnvironmentModel, A: FloatArray, b: FloatArray, size: int
+) -> NDArray[np.uint8]:
     """Channel 2: 128 outside the field of view, 0 seen, 255 occluded."""
     out = np.full((size, size), UNSEEN_VALUE, dtype=np.uint8)
     obs = model.observation
@@ -159,4 +165,5 @@ def rasterize_model(
             np.rint(acc, out=acc)
             out[:2] = np.clip(acc, 0, 255).astype(np.uint8)
     out[2] = _unobserved(model, A, b, size)
-    return cv2.merge([out[0], out[1], out[2]])
+    raster: NDArray[np.uint8] = cv2.merge([out[0], out[1], out[2]])
+    return raster

@@ -193,7 +193,7 @@ def _read_color_without_depth(renderer: Any) -> None:
     Wraps pyrender 0.1.45's ``Renderer._read_main_framebuffer`` of this one renderer; depth renders
     (``DEPTH_ONLY``) keep the original path. Does nothing where the internals differ.
     """
-    inner = getattr(renderer, "_renderer", None)
+    inner: Any = getattr(renderer, "_renderer", None)
     original = getattr(inner, "_read_main_framebuffer", None)
     if original is None or not hasattr(inner, "_main_fb_ms"):
         return

@@ -130,13 +130,28 @@ def draw_background(scene: Scene, view: MapView, robot_width_m: float = 0.5) -> 
     return img
 
 
-def _disc(img: UInt8Image, view: MapView, xy: FloatArray, radius_m: float, color, width: int):
+def _disc(
+    img: UInt8Image,
+    view: MapView,
+    xy: FloatArray,
+    radius_m: float,
+    color: tuple[int, int, int],
+    width: int,
+) -> None:
     c = view.fixed(np.asarray(xy, dtype=np.float64))
     r = round(radius_m * view.px_per_m * _SCALE)
     cv2.circle(img, (int(c[0]), int(c[1])), r, color, width, cv2.LINE_AA, _SHIFT)
 
 
-def _ray(img: UInt8Image, view: MapView, xy, angle: float, length_m: float, color, width: int):
+def _ray(
+    img: UInt8Image,
+    view: MapView,
+    xy: tuple[float, float],
+    angle: float,
+    length_m: float,
+    color: tuple[int, int, int],
+    width: int,
+) -> None:
     a = np.asarray(xy, dtype=np.float64)
     b = a + length_m * np.array([math.cos(angle), math.sin(angle)])
     pa, pb = view.fixed(a), view.fixed(b)

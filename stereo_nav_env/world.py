@@ -22,6 +22,7 @@ import shapely
 from shapely.geometry import Polygon
 
 from modeling.rig import HeadPose
+from modeling.validation import integer, number
 from stereo_nav_env.scenes import Scene
 
 __all__ = ["RobotState", "StepResult", "World", "WorldConfig"]
@@ -66,21 +67,9 @@ class WorldConfig:
             "max_pan_rate_rad_s",
             "dt_s",
         ):
-            value = getattr(self, name)
-            if (
-                isinstance(value, bool)
-                or not isinstance(value, int | float)
-                or not (math.isfinite(value) and value > 0)
-            ):
-                raise ValueError(f"{name} must be a positive finite number, got {value!r}")
-        if not (isinstance(self.pan_limit_rad, int | float) and 0 <= self.pan_limit_rad <= math.pi):
-            raise ValueError(f"pan_limit_rad must be in [0, pi], got {self.pan_limit_rad!r}")
-        if (
-            isinstance(self.substeps, bool)
-            or not isinstance(self.substeps, int)
-            or self.substeps < 1
-        ):
-            raise ValueError(f"substeps must be a positive integer, got {self.substeps!r}")
+            number(getattr(self, name), name, low=0.0)
+        number(self.pan_limit_rad, "pan_limit_rad", low=0.0, high=math.pi, strict=False)
+        integer(self.substeps, "substeps", low=1)
         if self.head_height_m > self.robot_height_m:
             raise ValueError(
                 f"head_height_m ({self.head_height_m}) must not exceed robot_height_m "
@@ -134,6 +123,10 @@ class StepResult:
 
 
 def _wrap(angle: float) -> float:
+    """``angle`` (radians) wrapped to (-pi, pi] by the exact ``math.remainder``: the physics' own
+    wrap of the body's unbounded pymunk angle (``modeling.geometry.wrap_angle``'s
+    ``(a + pi) % 2pi - pi`` rounds and maps to [-pi, pi), so it would change the poses' last bits
+    and with them every observation of a rollout)."""
     wrapped = math.remainder(angle, 2 * math.pi)
     return math.pi if wrapped == -math.pi else wrapped
 
@@ -179,8 +172,8 @@ class World:
                 shape.collision_type = _OBSTACLE
                 shapes.append(shape)
         self.space.add(*shapes)
-        self.body: pymunk.Body | None = None
-        self.shape: pymunk.Circle | None = None
+        self.body = pymunk.Body(10.0, float("inf"))  # replaced and added to the space by reset()
+        self.shape = pymunk.Circle(self.body, self.config.robot_radius_m)
         self._pan = 0.0
         self.reset()
 
@@ -194,7 +187,7 @@ class World:
             if not all(math.isfinite(float(v)) for v in value):
                 raise ValueError(f"{name} must be finite, got {value!r}")
         # a fresh body: cached contacts of the old one would push it with warm-started impulses
-        if self.body is not None:
+        if self.body in self.space.bodies:
             self.space.remove(self.body, self.shape)
         self.body = pymunk.Body(10.0, float("inf"))
         self.body.position = (float(x), float(y))

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -16,7 +18,7 @@ def test_continuous_actions_are_clipped_to_minus_one_one() -> None:
 @pytest.mark.parametrize(
     "action", [[np.nan, 0, 0], [0, 0, np.inf], [0, 0], [[0, 0, 0]], np.zeros(4), "abc", None]
 )
-def test_bad_continuous_actions_are_value_errors(action) -> None:
+def test_bad_continuous_actions_are_value_errors(action: Any) -> None:
     with pytest.raises(ValueError, match="action"):
         continuous_command(action)
 
@@ -34,6 +36,6 @@ def test_discrete_indices_give_the_tabled_commands() -> None:
 
 
 @pytest.mark.parametrize("action", [-1, 11, 1.0, np.float64(2.0), True, [1, 2], "1", None])
-def test_bad_discrete_actions_are_value_errors(action) -> None:
+def test_bad_discrete_actions_are_value_errors(action: Any) -> None:
     with pytest.raises(ValueError, match="action"):
         discrete_command(action)

@@ -7,14 +7,21 @@ import math
 
 import pytest
 
-from stereo_nav_env.config import EnvConfig, ObservationConfig, RewardConfig
+from stereo_nav_env.config import (
+    CameraConfig,
+    EnvConfig,
+    ObservationConfig,
+    ObservationMode,
+    RewardConfig,
+)
+from stereo_nav_env.world import WorldConfig
 
 
 def test_flat_keywords_reach_the_sub_configuration_that_owns_them() -> None:
     cfg = EnvConfig.from_kwargs(
         scenario="two_gaps", num_situations=4, goal_reward=3.0, pixel_noise_std=1.5
     )
-    assert cfg.scenario == "two_gaps" and cfg.pixel_noise_std == 1.5
+    assert cfg.scenario == "two_gaps" and cfg.camera.pixel_noise_std == 1.5
     assert cfg.observation.num_situations == 4 and cfg.observation.num_regions == 8
     assert cfg.rewards.goal_reward == 3.0 and cfg.rewards.time_penalty == 0.01
 
@@ -35,6 +42,9 @@ def test_whole_sub_configurations_are_accepted_and_flat_keys_override_them() -> 
         ({"bogus": 1}, "bogus"),
         ({"observation": {"bogus": 1}}, "bogus"),
         ({"observation": 3}, "observation"),
+        ({"world": {"bogus": 1}}, "bogus"),
+        ({"camera": "wide"}, "camera"),
+        ({"focal_px": 0.0}, "focal_px"),
         ({"scenario": "moon"}, "scenario"),
         ({"robot_width_m": 0.0}, "robot_width_m"),
         ({"baseline_m": -1.0}, "baseline_m"),
@@ -55,7 +65,9 @@ def test_whole_sub_configurations_are_accepted_and_flat_keys_override_them() -> 
         ({"max_speed_m_s": 100.0}, "substeps"),  # the world refuses tunnelling speeds
     ],
 )
-def test_unknown_or_invalid_values_are_value_errors_naming_them(kwargs, name) -> None:
+def test_unknown_or_invalid_values_are_value_errors_naming_them(
+    kwargs: dict[str, object], name: str
+) -> None:
     with pytest.raises(ValueError, match=name):
         EnvConfig.from_kwargs(**kwargs)
 
@@ -64,18 +76,63 @@ def test_configs_are_frozen_slotted_and_keyword_only() -> None:
     cfg = EnvConfig()
     with pytest.raises(dataclasses.FrozenInstanceError):
         cfg.scenario = "two_gaps"  # type: ignore[misc]
-    for cls in (EnvConfig, ObservationConfig, RewardConfig):
+    classes: tuple[type, ...] = (
+        EnvConfig,
+        WorldConfig,
+        CameraConfig,
+        ObservationConfig,
+        RewardConfig,
+    )
+    for cls in classes:
         assert hasattr(cls, "__slots__")
         with pytest.raises(TypeError):
-            cls(1)  # type: ignore[misc]
+            cls(1)
 
 
 def test_derived_values_are_properties() -> None:
     cfg = EnvConfig.from_kwargs(width_px=160, height_px=120, focal_px=130.0, robot_width_m=0.6)
     assert (cfg.rig.width_px, cfg.rig.height_px, cfg.rig.focal_px) == (160, 120, 130.0)
-    assert cfg.world_config.robot_width_m == 0.6 and cfg.robot_radius_m == 0.3
+    assert cfg.rig.baseline_m == cfg.camera.baseline_m == 0.12
+    assert cfg.world.robot_width_m == 0.6 and cfg.world.robot_radius_m == 0.3
     assert cfg.observation.raster_cell_m == pytest.approx(10.0 / 64)
     assert cfg.observation.num_features == 12
     assert not cfg.is_generated and EnvConfig(scenario="office").is_generated
     names = {f.name for f in dataclasses.fields(EnvConfig)}
-    assert not names & {"rig", "world_config", "robot_radius_m"}
+    assert names == {
+        "scenario",
+        "goal_radius_m",
+        "terminate_on_collision",
+        "eps",
+        "model_max_situations",
+        "close_faces",
+        "diagnostics",
+        "world",
+        "camera",
+        "observation",
+        "rewards",
+    }
+
+
+def test_each_value_has_one_home_and_whole_sub_configurations_nest() -> None:
+    world = WorldConfig(max_speed_m_s=0.4)
+    cfg = EnvConfig.from_kwargs(world=world, dt_s=0.05, camera={"width_px": 160}, height_px=120)
+    assert cfg.world.max_speed_m_s == 0.4 and cfg.world.dt_s == 0.05
+    assert (cfg.camera.width_px, cfg.camera.height_px) == (160, 120)
+    assert (cfg.rig.width_px, cfg.rig.height_px) == (160, 120)
+    leaves = [
+        f.name
+        for sub in (WorldConfig, CameraConfig, ObservationConfig, RewardConfig, EnvConfig)
+        for f in dataclasses.fields(sub)
+        if f.name not in ("world", "camera", "observation", "rewards")
+    ]
+    assert len(leaves) == len(set(leaves))  # flat keywords are unambiguous
+
+
+def test_observation_mode_is_an_enum_that_accepts_its_strings() -> None:
+    for text, mode in (("model", ObservationMode.MODEL), ("images", ObservationMode.IMAGES)):
+        cfg = ObservationConfig(observation_mode=text)  # type: ignore[arg-type]
+        assert cfg.observation_mode is mode and cfg.observation_mode == text
+    both = EnvConfig.from_kwargs(observation_mode=ObservationMode.BOTH).observation
+    assert both.has_model and both.has_images
+    images = EnvConfig.from_kwargs(observation_mode="images").observation
+    assert images.has_images and not images.has_model

@@ -15,17 +15,17 @@ from stereo_nav_env.diagnostics import (
     model_diagnostics,
     normalised_outline_errors,
 )
-from stereo_nav_env.scenes import Scene, make_obstacle, oriented_rect
+from stereo_nav_env.scenes import Obstacle, Scene, make_obstacle, oriented_rect
 
 SIGMA = 0.03
 COV = np.tile(np.diag([SIGMA**2, SIGMA**2]), (2, 1, 1))
 
 
-def _seg(a, b) -> FloorSegment:
+def _seg(a: tuple[float, float], b: tuple[float, float]) -> FloorSegment:
     return FloorSegment(endpoints=np.array([a, b], dtype=float), cov=COV)
 
 
-def _scene(*obstacles) -> Scene:
+def _scene(*obstacles: Obstacle) -> Scene:
     return Scene(
         name="t", bounds=(-1.0, -3.0, 8.0, 3.0), obstacles=obstacles, start=(0, 0, 0), goal=(7, 0)
     )

@@ -9,6 +9,7 @@ import os
 import pickle
 import warnings
 from collections.abc import Iterator
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -24,13 +25,24 @@ from stereo_nav_env.env import StereoNavEnv
 from stereo_nav_env.render import StereoRenderer
 from stereo_nav_env.rewards import REWARD_COMPONENTS
 
-SMALL = {"width_px": 160, "height_px": 120, "focal_px": 130.0}  # the default field of view
-TINY = {"width_px": 64, "height_px": 48, "focal_px": 52.0}
+SMALL: dict[str, Any] = {
+    "width_px": 160,
+    "height_px": 120,
+    "focal_px": 130.0,
+}  # the default field of view
+TINY: dict[str, Any] = {"width_px": 64, "height_px": 48, "focal_px": 52.0}
 IDS = sorted(
     env_id
     for env_id, spec in gym.registry.items()
     if isinstance(spec.entry_point, str) and spec.entry_point.startswith("stereo_nav_env")
 )
+
+
+def _u(env: gym.Env[Any, Any]) -> StereoNavEnv:
+    """The :class:`StereoNavEnv` under ``env``'s wrappers."""
+    base = env.unwrapped
+    assert isinstance(base, StereoNavEnv)
+    return base
 
 
 @pytest.fixture(scope="module")
@@ -63,8 +75,8 @@ def test_gymnasium_and_sb3_checkers_pass_without_warnings(env_id: str, mode: str
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error")
-            check_env(env.unwrapped)  # also makes an rgb_array env from the spec and renders it
-            sb3_check_env(env.unwrapped)
+            check_env(_u(env))  # also makes an rgb_array env from the spec and renders it
+            sb3_check_env(_u(env))
     finally:
         env.close()
 
@@ -74,8 +86,8 @@ def test_checkers_pass_with_both_observation_kinds_and_rgb_array_rendering() -> 
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error")
-            check_env(env.unwrapped)
-            sb3_check_env(env.unwrapped)
+            check_env(_u(env))
+            sb3_check_env(_u(env))
     finally:
         env.close()
 
@@ -89,10 +101,12 @@ def _equal(a: object, b: object) -> bool:
 
 
 def test_same_seed_gives_identical_observations_rewards_and_infos_over_50_steps() -> None:
-    def rollout() -> list:
+    def rollout() -> list[tuple[Any, ...]]:
         env = gym.make("StereoNav-v0", scenario="random", **SMALL)
         obs, info = env.reset(seed=7)
-        out = [(obs, info["diagnostics"], info["model"].probabilities.tolist(), info["scene"])]
+        out: list[tuple[Any, ...]] = [
+            (obs, info["diagnostics"], info["model"].probabilities.tolist(), info["scene"])
+        ]
         rng = np.random.default_rng(3)
         for _ in range(50):
             action = rng.uniform(-1, 1, 3).astype(np.float32)
@@ -125,9 +139,9 @@ def test_same_seed_gives_identical_observations_rewards_and_infos_over_50_steps(
 def test_different_seeds_differ_through_pixel_noise() -> None:
     env = gym.make("StereoNav-v0", **SMALL)
     env.reset(seed=1)
-    left1 = env.unwrapped.render_stereo()[0]
+    left1 = _u(env).render_stereo()[0]
     env.reset(seed=2)
-    left2 = env.unwrapped.render_stereo()[0]
+    left2 = _u(env).render_stereo()[0]
     env.close()
     assert not np.array_equal(left1, left2)
 
@@ -136,9 +150,9 @@ def test_env_survives_a_pickle_round_trip_and_continues_identically() -> None:
     env = gym.make("StereoNav-v0", **SMALL)
     env.reset(seed=5)
     env.step(np.array([1.0, 0.2, 0.5], np.float32))
-    clone = pickle.loads(pickle.dumps(env.unwrapped))
+    clone = pickle.loads(pickle.dumps(_u(env)))
     action = np.array([0.5, -0.3, -0.2], np.float32)
-    obs_a, r_a, *_, info_a = env.unwrapped.step(action)
+    obs_a, r_a, *_, info_a = _u(env).step(action)
     obs_b, r_b, *_, info_b = clone.step(action)
     assert _equal(obs_a, obs_b) and r_a == r_b
     assert info_a["model"] == info_b["model"]
@@ -182,9 +196,9 @@ def test_50_create_step_close_cycles_leave_no_renderer_or_file_behind() -> None:
         env = gym.make("StereoNav-v0", diagnostics=False, **TINY)
         env.reset(seed=0)
         env.step(env.action_space.sample())
-        assert env.unwrapped._renderer is not None
+        assert _u(env)._renderer is not None
         env.close()
-        assert env.unwrapped._renderer is None
+        assert _u(env)._renderer is None
 
     cycle()  # the first one loads the GL libraries
     # pyrender's close runs gc.collect(); freezing what exists now keeps that cheap, and the
@@ -214,24 +228,28 @@ def test_50_create_step_close_cycles_leave_no_renderer_or_file_behind() -> None:
     ],
 )
 def test_nan_infinite_or_wrongly_shaped_continuous_actions_are_value_errors(
-    continuous_env, action
+    continuous_env: gym.Env[Any, Any], action: Any
 ) -> None:
     with pytest.raises(ValueError, match="action"):
-        continuous_env.unwrapped.step(action)
+        _u(continuous_env).step(action)
 
 
 @pytest.mark.parametrize("action", [-1, 11, 2.0, True, np.array([1, 2]), np.float32(3.0)])
-def test_invalid_discrete_actions_are_value_errors(discrete_env, action) -> None:
+def test_invalid_discrete_actions_are_value_errors(
+    discrete_env: gym.Env[Any, Any], action: Any
+) -> None:
     with pytest.raises(ValueError, match="action"):
-        discrete_env.unwrapped.step(action)
+        _u(discrete_env).step(action)
 
 
 def test_out_of_range_actions_are_clipped_to_the_box() -> None:
-    def after(action: np.ndarray) -> tuple:
+    def after(action: np.ndarray) -> tuple[float, ...]:
         env = gym.make("StereoNav-v0", diagnostics=False, **TINY)
         env.reset(seed=0)
-        _, reward, *_ = env.unwrapped.step(action)
-        state = env.unwrapped.world.state
+        _, reward, *_ = _u(env).step(action)
+        world = _u(env).world
+        assert world is not None
+        state = world.state
         env.close()
         return (state.x_m, state.y_m, state.heading_rad, state.pan_rad, reward)
 
@@ -244,13 +262,14 @@ def test_discrete_macro_actions_move_and_look_as_tabled() -> None:
     env = gym.make("StereoNavDiscrete-v0", diagnostics=False, **TINY)
     assert env.action_space == gym.spaces.Discrete(len(DISCRETE_ACTIONS))
     env.reset(seed=0)
-    u = env.unwrapped
-    x0 = u.world.state.x_m
+    world = _u(env).world
+    assert world is not None
+    x0 = world.state.x_m
     env.step(0)  # forward: 0.5 m/s for 0.1 s along +x (the default start faces +x)
-    assert u.world.state.x_m - x0 == pytest.approx(0.05, abs=1e-6)
+    assert world.state.x_m - x0 == pytest.approx(0.05, abs=1e-6)
     env.step(np.int64(5))  # stop, look left: the head pans 9 degrees towards +45
-    assert u.world.state.pan_rad == pytest.approx(math.radians(9.0))
-    assert u.world.state.x_m - x0 == pytest.approx(0.05, abs=1e-6)
+    assert world.state.pan_rad == pytest.approx(math.radians(9.0))
+    assert world.state.x_m - x0 == pytest.approx(0.05, abs=1e-6)
     env.close()
 
 
@@ -311,7 +330,9 @@ def test_driving_into_a_wall_is_a_terminating_collision() -> None:
 def test_reaching_the_goal_is_success() -> None:
     env = gym.make("StereoNav-v0", diagnostics=False, goal_radius_m=0.5, **TINY)
     env.reset(seed=0)
-    env.unwrapped.world.reset((7.42, 3.0, 0.0))  # 0.58 m before the goal, facing it
+    world = _u(env).world
+    assert world is not None
+    world.reset((7.42, 3.0, 0.0))  # 0.58 m before the goal, facing it
     _, _, terminated, _, info = env.step(np.array([1.0, 0.0, 0.0], np.float32))
     assert not terminated
     _, _, terminated, _, info = env.step(np.array([1.0, 0.0, 0.0], np.float32))
@@ -323,7 +344,7 @@ def test_images_mode_observes_the_noisy_pair_render_stereo_returns() -> None:
     env = gym.make("StereoNav-v0", observation_mode="images", pixel_noise_std=4.0, **SMALL)
     obs, _ = env.reset(seed=1)
     assert set(obs) == {"left", "right", "goal", "head_pan"}
-    left, right = env.unwrapped.render_stereo()
+    left, right = _u(env).render_stereo()
     assert np.array_equal(obs["left"], left) and np.array_equal(obs["right"], right)
     assert left.shape == (120, 160, 3) and left.dtype == np.uint8
     env.close()
@@ -334,8 +355,8 @@ def test_pixel_noise_comes_from_the_env_generator() -> None:
     noisy = gym.make("StereoNav-v0", pixel_noise_std=4.0, **SMALL)
     clean.reset(seed=1)
     noisy.reset(seed=1)
-    a = clean.unwrapped.render_stereo()[0].astype(float)
-    b = noisy.unwrapped.render_stereo()[0].astype(float)
+    a = _u(clean).render_stereo()[0].astype(float)
+    b = _u(noisy).render_stereo()[0].astype(float)
     assert 3.7 < np.std(b - a) < 4.3
     assert (
         np.array_equal(b[..., 0] - a[..., 0], b[..., 1] - a[..., 1])
@@ -349,8 +370,9 @@ def test_rgb_array_render_is_a_frame_with_the_left_image_inset() -> None:
     env = gym.make("StereoNav-v0", render_mode="rgb_array", **SMALL)
     env.reset(seed=0)
     frame = env.render()
+    assert isinstance(frame, np.ndarray)
     assert frame.shape == (480, 960, 3) and frame.dtype == np.uint8
-    left = env.unwrapped.render_stereo()[0]
+    left = _u(env).render_stereo()[0]
     import cv2
 
     inset = cv2.resize(left, (320, 240), interpolation=cv2.INTER_AREA)
@@ -382,10 +404,11 @@ def test_unknown_or_invalid_options_are_value_errors_naming_them() -> None:
 def test_unwrapped_exposes_rig_head_pose_and_ground_truth() -> None:
     env = gym.make("StereoNav-v0", **SMALL)
     env.reset(seed=0)
-    u = env.unwrapped
+    u = _u(env)
     assert (u.rig.width_px, u.rig.height_px) == (160, 120)
     assert u.head_pose.heading_rad == 0.0 and u.head_pose.y_m == pytest.approx(3.06)
     fps = u.ground_truth_footprints()
+    assert u.scene is not None
     assert len(fps) == len(u.scene.obstacles) and all(f.shape[1] == 2 for f in fps)
     env.close()
     env.close()  # idempotent

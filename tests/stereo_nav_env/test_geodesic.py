@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import pytest
 
 from stereo_nav_env.geodesic import GeodesicField
-from stereo_nav_env.scenes import Scene, make_obstacle, oriented_rect
+from stereo_nav_env.scenes import Obstacle, Scene, make_obstacle, oriented_rect
 
 
-def _room(obstacles=(), goal=(8.0, 3.0)) -> Scene:
+def _room(obstacles: Sequence[Obstacle] = (), goal: tuple[float, float] = (8.0, 3.0)) -> Scene:
     return Scene(
         name="test",
         bounds=(0.0, 0.0, 10.0, 6.0),

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from modeling.model import build_model
+from modeling.model import EnvironmentModel, build_model
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
 from modeling.rig import StereoRig
-from stereo_nav_env.config import REGION_FEATURES, ObservationConfig
+from stereo_nav_env.config import REGION_FEATURES, ObservationConfig, ObservationMode
 from stereo_nav_env.observation import (
     goal_features,
     observation_space,
@@ -28,7 +28,7 @@ def _seg(a: tuple[float, float], b: tuple[float, float]) -> FloorSegment:
 
 
 @pytest.fixture(scope="module")
-def gap_model():
+def gap_model() -> EnvironmentModel:
     """Two collinear wall pieces at x = 2 m with a 0.55 m gap (undecided for a 0.5 m robot)."""
     obs = FloorObservation(
         segments=(_seg((2.0, 0.3), (2.0, 1.3)), _seg((2.0, -0.25), (2.0, -1.25))),
@@ -43,7 +43,9 @@ def test_to_robot_frame_rotates_and_translates() -> None:
     np.testing.assert_allclose(
         to_robot_frame(pts, (0.0, 0.0, math.pi / 2)), [[0.025, -2.0], [1.0, -1.0]], atol=1e-12
     )
-    np.testing.assert_allclose(to_robot_frame(pts, (1.0, 1.0, math.pi)), [[-1.0, 0.975], [0, 0]])
+    np.testing.assert_allclose(
+        to_robot_frame(pts, (1.0, 1.0, math.pi)), [[-1.0, 0.975], [0.0, 0.0]]
+    )
 
 
 def test_goal_features_are_position_distance_and_bearing_in_the_robot_frame() -> None:
@@ -55,7 +57,7 @@ def test_goal_features_are_position_distance_and_bearing_in_the_robot_frame() ->
     assert g.tolist() == pytest.approx([1.0, 0.0, 1.0, 0.0], abs=1e-6)
 
 
-def test_region_features_match_the_critical_region_exactly(gap_model) -> None:
+def test_region_features_match_the_critical_region_exactly(gap_model: EnvironmentModel) -> None:
     cfg = ObservationConfig(num_situations=2, num_regions=3)
     (region,) = gap_model.situations[0].critical_regions
     pose = (0.0, 0.0, math.pi / 2)  # facing +y: the region lies to the right
@@ -119,7 +121,9 @@ def test_situation_probs_follow_the_models_situations() -> None:
     assert len(model.situations) == 2 and probs[0] == pytest.approx(0.7)
 
 
-def test_raster_channels_show_obstacles_doubt_and_unobserved_area(gap_model) -> None:
+def test_raster_channels_show_obstacles_doubt_and_unobserved_area(
+    gap_model: EnvironmentModel,
+) -> None:
     cfg = ObservationConfig()  # 64 px over +-5 m: 0.15625 m per pixel, robot at (31.5, 31.5)
     raster = rasterize_model(gap_model, (0.0, 0.0, 0.0), cfg)
     assert raster.shape == (64, 64, 3) and raster.dtype == np.uint8
@@ -136,7 +140,7 @@ def test_raster_channels_show_obstacles_doubt_and_unobserved_area(gap_model) -> 
     assert unseen[25, 32] == 0 and unseen[5, 26] == 255 and unseen[60, 32] == UNSEEN_VALUE
 
 
-def test_raster_rotates_with_the_robot(gap_model) -> None:
+def test_raster_rotates_with_the_robot(gap_model: EnvironmentModel) -> None:
     cfg = ObservationConfig()
     ahead = np.moveaxis(rasterize_model(gap_model, (0.0, 0.0, 0.0), cfg), -1, 0)
     # facing -y, the wall at x = 2 is on the robot's left: the raster turns by 90 degrees
@@ -155,9 +159,11 @@ def test_world_to_raster_puts_the_robot_in_the_centre_and_forward_up() -> None:
     assert (ahead @ A.T + b).tolist() == pytest.approx([31.5, 31.5 - 6.4])
 
 
-def test_observation_space_holds_packed_observations_and_the_mode_keys(gap_model) -> None:
+def test_observation_space_holds_packed_observations_and_the_mode_keys(
+    gap_model: EnvironmentModel,
+) -> None:
     rig = StereoRig()
-    cfg = ObservationConfig(observation_mode="both", num_situations=3, num_regions=2)
+    cfg = ObservationConfig(observation_mode=ObservationMode.BOTH, num_situations=3, num_regions=2)
     space = observation_space(cfg, rig)
     assert set(space.spaces) == {
         "situation_probs",
@@ -175,11 +181,11 @@ def test_observation_space_holds_packed_observations_and_the_mode_keys(gap_model
     obs["head_pan"] = np.zeros(1, np.float32)
     obs["left"] = obs["right"] = np.zeros((240, 320, 3), np.uint8)
     assert space.contains(obs)
-    images = observation_space(ObservationConfig(observation_mode="images"), rig)
+    images = observation_space(ObservationConfig(observation_mode=ObservationMode.IMAGES), rig)
     assert set(images.spaces) == {"left", "right", "goal", "head_pan"}
 
 
-def test_far_features_are_clipped_to_the_box(gap_model) -> None:
+def test_far_features_are_clipped_to_the_box(gap_model: EnvironmentModel) -> None:
     cfg = ObservationConfig(feature_range_m=1.0)
     table = pack_model(gap_model, (0.0, 0.0, 0.0), cfg)["critical_regions"].reshape(8, 8, -1)
     assert table[0, 0, 1] == 1.0 and table[0, 0, 7] == 2.0  # x 2 m and distance clipped

@@ -13,7 +13,7 @@ from scipy.stats import norm
 
 from modeling.model import EnvironmentModel, build_model
 from modeling.observation import FloorObservation, FloorSegment
-from modeling.rig import HeadPose
+from modeling.rig import HeadPose, StereoRig
 from stereo_nav_env.perception import (
     ComparableModel,
     Stopwatch,
@@ -21,15 +21,19 @@ from stereo_nav_env.perception import (
     draw_noise_levels,
     draw_pixel_noise,
     noise_of_levels,
+    noise_of_levels_reference,
     noisy_grey,
+    noisy_grey_reference,
     perceive,
     structurally_equal,
 )
+from stereo_nav_env.render import StereoRenderer
 
 
 def test_pixel_noise_is_gaussian_with_the_configured_sigma_and_seeded() -> None:
     sigma = 2.5
     noise = draw_pixel_noise(np.random.default_rng(0), 240, 320, sigma)
+    assert noise is not None
     assert noise.shape == (2, 240, 320) and noise.dtype == np.int16
     # whole grey levels: the variance of a rounded normal is sigma^2 + 1/12
     assert abs(noise.mean()) < 0.02
@@ -39,7 +43,7 @@ def test_pixel_noise_is_gaussian_with_the_configured_sigma_and_seeded() -> None:
     assert np.mean(np.abs(noise) >= 8) == pytest.approx(2 * norm.sf(7.5 / sigma), abs=0.0006)
     assert abs(np.corrcoef(noise[0].ravel(), noise[1].ravel())[0, 1]) < 0.01
     again = draw_pixel_noise(np.random.default_rng(0), 240, 320, sigma)
-    assert np.array_equal(noise, again)
+    assert again is not None and np.array_equal(noise, again)
     assert draw_pixel_noise(np.random.default_rng(0), 240, 320, 0.0) is None
 
 
@@ -52,9 +56,12 @@ def test_adding_noise_saturates_and_keeps_the_grey_level_noise() -> None:
     # the grey image of the noisy RGB image is the noisy grey image (no channel saturating)
     rng = np.random.default_rng(1)
     rgb = rng.integers(20, 236, (60, 80, 3), dtype=np.uint8)
-    noise = draw_pixel_noise(rng, 60, 80, 3.0)[0]
+    drawn = draw_pixel_noise(rng, 60, 80, 3.0)
+    assert drawn is not None
+    noise = drawn[0]
     grey_of_noisy = cv2.cvtColor(add_pixel_noise(rgb, noise), cv2.COLOR_RGB2GRAY)
-    noisy_grey = add_pixel_noise(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY), noise)
+    grey: np.ndarray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+    noisy_grey = add_pixel_noise(grey, noise)
     assert np.array_equal(grey_of_noisy, noisy_grey)
 
 
@@ -65,8 +72,8 @@ def test_adding_noise_saturates_and_keeps_the_grey_level_noise() -> None:
 def test_noise_levels_are_the_generators_own_uint16_draws(
     height: int, width: int, pending_half: bool
 ) -> None:
-    # the fast path (raw 64-bit outputs) and the fallbacks (a 32-bit half pending, a count not a
-    # multiple of 4) give the values and the generator state of rng.integers itself
+    # whatever the generator's state (a 32-bit half pending, any count), the draws and the state
+    # the generator is left in are those of rng.integers itself
     fast, slow = np.random.default_rng(7), np.random.default_rng(7)
     if pending_half:
         for rng in (fast, slow):
@@ -89,12 +96,14 @@ def test_noisy_grey_is_the_grey_image_plus_the_noise_saturated() -> None:
     levels = draw_noise_levels(rng, 60, 80)[0]
     for sigma in (0.5, 2.0, 40.0):
         want = add_pixel_noise(
-            cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY), noise_of_levels(levels, sigma)
+            np.asarray(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY), np.uint8),
+            noise_of_levels(levels, sigma),
         )
         got = noisy_grey(rgb, levels, sigma)
         assert got.dtype == np.uint8 and np.array_equal(got, want)
     # draw_pixel_noise is the noise of the levels drawn the same way
     noise = draw_pixel_noise(np.random.default_rng(5), 60, 80, 2.0)
+    assert noise is not None
     assert np.array_equal(
         noise, noise_of_levels(draw_noise_levels(np.random.default_rng(5), 60, 80), 2.0)
     )
@@ -102,6 +111,20 @@ def test_noisy_grey_is_the_grey_image_plus_the_noise_saturated() -> None:
         noisy_grey(rgb[..., 0], levels, 2.0)
     with pytest.raises(ValueError, match="levels"):
         noisy_grey(rgb, levels[:-1], 2.0)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_compiled_noise_kernels_equal_their_numpy_references(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    height, width = int(rng.integers(1, 40)), int(rng.integers(1, 40))
+    rgb = rng.integers(0, 256, (height, width, 3), dtype=np.uint8)
+    levels = draw_noise_levels(rng, height, width)
+    sigma = float(rng.uniform(0.1, 60.0))
+    want = noise_of_levels_reference(levels, sigma)
+    assert want.dtype == np.int16 and np.array_equal(noise_of_levels(levels, sigma), want)
+    for lv in levels:
+        got, ref = noisy_grey(rgb, lv, sigma), noisy_grey_reference(rgb, lv, sigma)
+        assert got.dtype == ref.dtype == np.uint8 and np.array_equal(got, ref)
 
 
 def _model(shift: float = 0.0) -> EnvironmentModel:
@@ -129,7 +152,9 @@ def test_structural_equality_rules() -> None:
     assert not structurally_equal(shapely.box(0, 0, 1, 1), shapely.box(0, 0, 1, 2))
 
 
-def test_perceive_models_a_rendered_pair_and_times_its_stages(rig, default_renderer) -> None:
+def test_perceive_models_a_rendered_pair_and_times_its_stages(
+    rig: StereoRig, default_renderer: StereoRenderer
+) -> None:
     head = HeadPose(x_m=1.0, y_m=3.06, heading_rad=0.0, height_m=0.8)
     left, right = default_renderer.render_stereo(head)
     watch = Stopwatch()

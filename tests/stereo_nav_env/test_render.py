@@ -9,9 +9,11 @@ positions under the rig. Edge positions are read to sub-pixel precision from the
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 
 import numpy as np
 import pytest
+import trimesh
 
 from modeling.rig import HeadPose, StereoRig
 from stereo_nav_env.render import (
@@ -41,14 +43,15 @@ def _box_scene(depth_m: float) -> Scene:
 
 
 @pytest.fixture(scope="module")
-def box_renderer(rig):
+def box_renderer(rig: StereoRig) -> Iterator[StereoRenderer]:
     renderer = StereoRenderer(rig, _box_scene(3.0))
     yield renderer
     renderer.close()
 
 
 def _gray(img: np.ndarray) -> np.ndarray:
-    return img.astype(np.float64).mean(axis=2)
+    grey: np.ndarray = img.astype(np.float64).mean(axis=2)
+    return grey
 
 
 def _step_position(profile: np.ndarray, approx: float, half: int = 4) -> float:
@@ -65,7 +68,9 @@ def _step_position(profile: np.ndarray, approx: float, half: int = 4) -> float:
     return k0 - 0.5 + float(np.sum((window - b) / (a - b)))
 
 
-def test_box_corner_projects_onto_the_rendered_edges(box_renderer, rig) -> None:
+def test_box_corner_projects_onto_the_rendered_edges(
+    box_renderer: StereoRenderer, rig: StereoRig
+) -> None:
     box_renderer.set_scene(_box_scene(3.0))
     left = _gray(box_renderer.render_view(HEAD))
     corner = np.array([[3.0, HALF_WIDTH, BOX_HEIGHT]])  # top-front-left corner, world
@@ -78,9 +83,12 @@ def test_box_corner_projects_onto_the_rendered_edges(box_renderer, rig) -> None:
 
 
 @pytest.mark.parametrize("depth_m", [2.0, 3.0, 5.0])
-def test_vertical_edge_disparity_is_fb_over_z(box_renderer, rig, depth_m: float) -> None:
+def test_vertical_edge_disparity_is_fb_over_z(
+    box_renderer: StereoRenderer, rig: StereoRig, depth_m: float
+) -> None:
     box_renderer.set_scene(_box_scene(depth_m))
     left, right = (_gray(img) for img in box_renderer.render_stereo(HEAD))
+    assert rig.cx_px is not None and rig.cy_px is not None  # the default rig's centre
     v = round(rig.cy_px + rig.focal_px * (0.8 - 0.4) / depth_m)  # a row 0.4 m above the floor
     u_left = rig.cx_px - rig.focal_px * HALF_WIDTH / depth_m
     u_right = u_left - rig.fb / depth_m
@@ -94,9 +102,10 @@ def test_vertical_edge_disparity_is_fb_over_z(box_renderer, rig, depth_m: float)
     assert d == pytest.approx(rig.fb / depth_m, abs=0.5)
 
 
-def test_rows_are_aligned(box_renderer, rig) -> None:
+def test_rows_are_aligned(box_renderer: StereoRenderer, rig: StereoRig) -> None:
     box_renderer.set_scene(_box_scene(3.0))
     left, right = (_gray(img) for img in box_renderer.render_stereo(HEAD))
+    assert rig.cy_px is not None
     v_top = rig.cy_px - rig.focal_px * (BOX_HEIGHT - 0.8) / 3.0
     for u in (150, 160, 170):
         top_left = _step_position(left[:, u], v_top)
@@ -105,7 +114,7 @@ def test_rows_are_aligned(box_renderer, rig) -> None:
         assert top_right == pytest.approx(top_left, abs=0.05)
 
 
-def test_flat_shading_gives_the_baked_colours(box_renderer, rig) -> None:
+def test_flat_shading_gives_the_baked_colours(box_renderer: StereoRenderer, rig: StereoRig) -> None:
     box_renderer.set_scene(_box_scene(3.0))
     img = box_renderer.render_view(HEAD).astype(int)
     face = img[140, 160]  # the box's front face, facing world -x
@@ -114,7 +123,7 @@ def test_flat_shading_gives_the_baked_colours(box_renderer, rig) -> None:
     np.testing.assert_allclose(img[2, 160], np.round(255 * np.array(BACKGROUND_COLOR)), atol=1)
 
 
-def test_depth_is_along_the_optical_axis(box_renderer, rig) -> None:
+def test_depth_is_along_the_optical_axis(box_renderer: StereoRenderer, rig: StereoRig) -> None:
     box_renderer.set_scene(_box_scene(3.0))
     depth = box_renderer.render_depth(HEAD)
     assert depth.shape == (rig.height_px, rig.width_px)
@@ -122,13 +131,16 @@ def test_depth_is_along_the_optical_axis(box_renderer, rig) -> None:
     assert depth[140, 120] == pytest.approx(3.0, abs=1e-3)  # off-centre: still Z, not range
     assert np.isinf(depth[2, 160])  # background
     v = rig.height_px - 1
+    assert rig.cy_px is not None
     # floor; depth comes from one of the 4 samples, up to ~0.4 px off the pixel centre
     assert depth[v, 5] == pytest.approx(0.8 * rig.focal_px / (v - rig.cy_px), rel=5e-3)
     right = box_renderer.render_depth(HEAD, right=True)
     assert right[140, 150] == pytest.approx(3.0, abs=1e-3)
 
 
-def test_default_scene_pair(default_renderer, default_scene, rig) -> None:
+def test_default_scene_pair(
+    default_renderer: StereoRenderer, default_scene: Scene, rig: StereoRig
+) -> None:
     x, y, heading = default_scene.start
     head = HeadPose(x_m=x, y_m=y + 0.06, heading_rad=heading, height_m=0.8)
     left, right = default_renderer.render_stereo(head)
@@ -146,18 +158,19 @@ def test_default_scene_pair(default_renderer, default_scene, rig) -> None:
     assert np.array_equal(default_renderer.render_view(head), left)  # still usable after that
 
 
-def test_static_geometry_is_one_mesh(default_scene) -> None:
+def test_static_geometry_is_one_mesh(default_scene: Scene) -> None:
     mesh = build_scene_mesh(default_scene)
     n_parts = sum(len(ob.parts) for ob in default_scene.obstacles)
     # floor: 2 triangles; each rectangular part: 8 side + 2 top (+ 2 bottom if off the floor)
     assert 2 + 10 * n_parts <= len(mesh.faces) <= 2 + 12 * n_parts
+    assert isinstance(mesh.visual, trimesh.visual.ColorVisuals)
     assert mesh.visual.face_colors.shape == (len(mesh.faces), 4)
     renderer = StereoRenderer(StereoRig(), default_scene)
     assert len(renderer._pr_scene.mesh_nodes) == 1
     renderer.close()
 
 
-def test_close_is_idempotent_and_rendering_reopens(box_renderer) -> None:
+def test_close_is_idempotent_and_rendering_reopens(box_renderer: StereoRenderer) -> None:
     renderer = StereoRenderer(StereoRig(width_px=64, height_px=48, focal_px=52.0), _box_scene(3.0))
     first = renderer.render_view(HEAD)
     renderer.close()
@@ -167,7 +180,7 @@ def test_close_is_idempotent_and_rendering_reopens(box_renderer) -> None:
     assert box_renderer.render_view(HEAD).shape == (240, 320, 3)  # other contexts unaffected
 
 
-def test_invalid_arguments_are_named(rig) -> None:
+def test_invalid_arguments_are_named(rig: StereoRig) -> None:
     with pytest.raises(ValueError, match="rig"):
         StereoRenderer("rig", _box_scene(3.0))  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="scene"):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -32,7 +33,7 @@ def test_defaults_use_pixel_centre_principal_point() -> None:
         ({"min_depth_m": 5.0, "max_depth_m": 2.0}, "max_depth_m"),
     ],
 )
-def test_invalid_rig_names_the_field(kwargs: dict, name: str) -> None:
+def test_invalid_rig_names_the_field(kwargs: dict[str, Any], name: str) -> None:
     with pytest.raises(ValueError, match=name):
         StereoRig(**kwargs)
 
@@ -45,7 +46,7 @@ def test_invalid_rig_names_the_field(kwargs: dict, name: str) -> None:
         ({"heading_rad": float("nan")}, "heading_rad"),
     ],
 )
-def test_invalid_head_pose_names_the_field(kwargs: dict, name: str) -> None:
+def test_invalid_head_pose_names_the_field(kwargs: dict[str, Any], name: str) -> None:
     base = {"x_m": 0.0, "y_m": 0.0, "heading_rad": 0.0, "height_m": 0.8}
     with pytest.raises(ValueError, match=name):
         HeadPose(**{**base, **kwargs})
@@ -79,7 +80,11 @@ def test_triangulate_inverts_project() -> None:
 def test_field_of_view() -> None:
     rig = StereoRig.from_fov(width_px=320, height_px=240, hfov_deg=64.0)
     assert math.degrees(rig.hfov_rad) == pytest.approx(64.0)
-    assert StereoRig().in_image([[0, 0], [319.4, 239.4], [-0.6, 3]]).tolist() == [True, True, False]
+    assert StereoRig().in_image([[0.0, 0.0], [319.4, 239.4], [-0.6, 3.0]]).tolist() == [
+        True,
+        True,
+        False,
+    ]
 
 
 def test_head_pose_frames() -> None:

@@ -5,6 +5,9 @@ from __future__ import annotations
 import copy
 import json
 import math
+import pathlib
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import pytest
@@ -68,7 +71,7 @@ def test_generator_is_deterministic() -> None:
         ({"min_doubtful_gaps": -1}, "min_doubtful_gaps"),
     ],
 )
-def test_bad_generator_parameters_are_named(kwargs: dict, name: str) -> None:
+def test_bad_generator_parameters_are_named(kwargs: dict[str, Any], name: str) -> None:
     with pytest.raises(ValueError, match=name):
         generate_scene(0, **kwargs)
 
@@ -86,7 +89,11 @@ def _two_boxes(gap: float, blocker: bool = False) -> Scene:
     if blocker:
         obstacles.append(make_obstacle("box", oriented_rect([1.5 + gap / 2, 2.0], gap / 3, 1.2)))
     return Scene(
-        name="t", bounds=(0, 0, 5, 4), obstacles=obstacles, start=(0.3, 0.3, 0), goal=(4.5, 3.5)
+        name="t",
+        bounds=(0, 0, 5, 4),
+        obstacles=tuple(obstacles),
+        start=(0.3, 0.3, 0),
+        goal=(4.5, 3.5),
     )
 
 
@@ -148,7 +155,7 @@ def test_default_map_shows_a_bookshelf_and_a_doubtful_gap_from_the_start() -> No
     assert scene.route_exists(W)
 
 
-def test_json_round_trip(tmp_path) -> None:
+def test_json_round_trip(tmp_path: pathlib.Path) -> None:
     scene = generate_scene(2, family="office")
     path = save_map(scene, tmp_path / "m.json")
     back = load_map(path)
@@ -166,8 +173,8 @@ def test_json_round_trip(tmp_path) -> None:
     assert scene_to_json(scene2)["obstacles"][0]["parts"][0]["z"] == [0.1, 0.3]
 
 
-def _bad(mutate) -> dict:
-    data = json.loads(json.dumps(scene_to_json(load_scenario("default"))))
+def _bad(mutate: Callable[[Any], object]) -> dict[str, Any]:
+    data: dict[str, Any] = json.loads(json.dumps(scene_to_json(load_scenario("default"))))
     mutate(data)
     return data
 
@@ -200,12 +207,12 @@ def _bad(mutate) -> dict:
         (lambda d: d.__setitem__("colour", 1), "unknown keys"),
     ],
 )
-def test_malformed_maps_name_the_field(mutate, message: str) -> None:
+def test_malformed_maps_name_the_field(mutate: Callable[[Any], object], message: str) -> None:
     with pytest.raises(ValueError, match=message):
         scene_from_json(_bad(mutate))
 
 
-def test_load_map_rejects_bad_json(tmp_path) -> None:
+def test_load_map_rejects_bad_json(tmp_path: pathlib.Path) -> None:
     path = tmp_path / "broken.json"
     path.write_text("{not json")
     with pytest.raises(ValueError, match="not valid JSON"):

@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
 
-from stereo_nav_env.scenes import Scene, generate_scene, make_obstacle, oriented_rect
+from stereo_nav_env.scenes import Obstacle, Scene, generate_scene, make_obstacle, oriented_rect
 from stereo_nav_env.world import World, WorldConfig
 
 
-def _scene(*obstacles, start=(1.0, 2.0, 0.0)) -> Scene:
+def _scene(*obstacles: Obstacle, start: tuple[float, float, float] = (1.0, 2.0, 0.0)) -> Scene:
     return Scene(name="t", bounds=(0, 0, 6, 4), obstacles=obstacles, start=start, goal=(5.5, 2.0))
 
 
@@ -53,7 +54,9 @@ def test_no_tunnelling_through_a_thin_wall_at_top_speed(heading: float) -> None:
 
 
 def test_collision_with_a_concave_footprint() -> None:
-    ell = make_obstacle("box", [[3, 1], [4, 1], [4, 3], [3.5, 3], [3.5, 1.5], [3, 1.5]])
+    ell = make_obstacle(
+        "box", [[3.0, 1.0], [4.0, 1.0], [4.0, 3.0], [3.5, 3.0], [3.5, 1.5], [3.0, 1.5]]
+    )
     world = World(_scene(ell, start=(3.75, 0.5, math.pi / 2)))
     for _ in range(60):
         world.step(0.5, 0.0, 0.0)
@@ -115,7 +118,7 @@ def test_generated_scene_start_is_collision_free() -> None:
         ({"head_height_m": 1.5}, "head_height_m"),
     ],
 )
-def test_invalid_config_names_the_field(kwargs: dict, name: str) -> None:
+def test_invalid_config_names_the_field(kwargs: dict[str, Any], name: str) -> None:
     with pytest.raises(ValueError, match=name):
         WorldConfig(**kwargs)
 

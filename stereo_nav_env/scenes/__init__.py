@@ -1,0 +1,64 @@
+"""Indoor scenes: their types, furniture parts, the JSON map format and a seeded generator.
+
+A :class:`Scene` is what the simulator knows for certain: the room's bounds, the obstacles (each
+with its true 2D collision outline and the 3D boxes that draw it), the robot's start pose and the
+goal. The package has one module per concept:
+
+* :mod:`~stereo_nav_env.scenes.types`: :class:`Scene`, :class:`Obstacle`, :class:`BoxPart`,
+  :class:`Gap`, :class:`ObstacleKind` (true gaps: :meth:`Scene.gaps`, :meth:`Scene.doubtful_gaps`),
+* :mod:`~stereo_nav_env.scenes.parts`: the rendered prisms of each kind (:func:`make_obstacle`),
+* :mod:`~stereo_nav_env.scenes.map_io`: the JSON map format (``stereo-nav-map/1``,
+  :func:`load_map`, :func:`save_map`), the bundled maps and :func:`load_scenario`,
+* :mod:`~stereo_nav_env.scenes.generator`: the families and their layouts
+  (:func:`generate_scene`).
+
+Every public name is importable from here: ``from stereo_nav_env.scenes import Scene``.
+"""
+
+from stereo_nav_env.scenes.generator import BOX_PALETTE, FAMILIES, WALL_THICKNESS_M, generate_scene
+from stereo_nav_env.scenes.map_io import (
+    MAP_FORMAT,
+    MAPS_DIR,
+    available_maps,
+    load_map,
+    load_scenario,
+    save_map,
+    scene_from_json,
+    scene_to_json,
+)
+from stereo_nav_env.scenes.parts import make_obstacle, oriented_rect
+from stereo_nav_env.scenes.types import (
+    DEFAULT_COLOR,
+    DEFAULT_HEIGHT_M,
+    DEFAULT_MARGIN_M,
+    BoxPart,
+    Gap,
+    Obstacle,
+    ObstacleKind,
+    Scene,
+)
+
+__all__ = [
+    "BOX_PALETTE",
+    "DEFAULT_COLOR",
+    "DEFAULT_HEIGHT_M",
+    "DEFAULT_MARGIN_M",
+    "FAMILIES",
+    "MAPS_DIR",
+    "MAP_FORMAT",
+    "WALL_THICKNESS_M",
+    "BoxPart",
+    "Gap",
+    "Obstacle",
+    "ObstacleKind",
+    "Scene",
+    "available_maps",
+    "generate_scene",
+    "load_map",
+    "load_scenario",
+    "make_obstacle",
+    "oriented_rect",
+    "save_map",
+    "scene_from_json",
+    "scene_to_json",
+]

@@ -1,0 +1,272 @@
+"""Map I/O: the JSON map format, bundled maps, and scenes by name.
+
+JSON map format.
+
+A :class:`Scene` is what the simulator knows for certain: the room's bounds, the obstacles (each
+with its true 2D collision outline and the 3D boxes that draw it), the robot's start pose and the
+goal. Frames and units follow ARCHITECTURE.md: world metres, floor plane x-y, z up, headings in
+radians counter-clockwise from +x.
+
+Obstacles
+---------
+Every obstacle has a ``kind`` (:class:`ObstacleKind`), a ``footprint`` (k, 2) polygon in world
+metres that is the robot's true collision outline, a height and a tuple of :class:`BoxPart` prisms
+used only for rendering. A table's footprint is the outline of its top: the robot (1.0 m tall)
+cannot pass under a 0.75 m table, although the camera sees the floor between its legs. Parts are
+built from the kind (:func:`make_obstacle`): tables and chairs stand on legs, bookshelves carry
+shelf boards and vertical dividers whose repeated front edges make stereo matching ambiguous, walls
+and boxes are plain prisms. Walls with doorways are several wall obstacles; the doorway is the gap
+between them.
+
+Gaps
+----
+:meth:`Scene.gaps` lists the true gaps between pairs of obstacles (closest points, width), the
+ground truth for passability; :meth:`Scene.doubtful_gaps` keeps those within a relative tolerance
+of the robot's width. Generated scenes always have at least two doubtful gaps (width within 30 % of
+the robot width) and a route from start to goal that the robot fits through.
+
+JSON map format (``stereo-nav-map/1``)
+--------------------------------------
+A map file is one JSON object::
+
+    {
+      "format": "stereo-nav-map/1",          # optional; if present it must be this string
+      "name": "default",                      # optional, default: the file's stem
+      "bounds": [xmin, ymin, xmax, ymax],     # metres, the floor area (xmin < xmax, ymin < ymax)
+      "start": [x, y, heading_rad],           # robot start pose, inside the bounds
+      "goal": [x, y],                         # goal position, inside the bounds
+      "obstacles": [                          # list, may be empty
+        {
+          "kind": "wall" | "table" | "chair" | "bookshelf" | "box",
+          "footprint": [[x, y], ...],         # >= 3 points, a simple polygon, metres, world frame
+          "rect": {"center": [x, y], "size": [length, depth], "yaw_deg": 0.0},
+                                              # alternative to "footprint": an oriented rectangle
+                                              # whose length runs along yaw; exactly one of the two
+          "height": 0.75,                     # metres, > 0 (default per kind, see DEFAULT_HEIGHT_M)
+          "color": [r, g, b],                 # optional, each in [0, 1] (default per kind)
+          "parts": [                          # optional; default: built from kind/footprint/height
+            {"footprint": [[x, y], ...], "z": [z_min, z_max], "color": [r, g, b]}
+          ]
+        }
+      ]
+    }
+
+Tables, chairs and bookshelves need a rectangular footprint to get their legs, seat or shelves
+(their front, i.e. a bookshelf's open side or a chair's seat edge, is the side from the first to
+the second footprint corner); other footprints are drawn as one prism. A bookshelf's footprint runs
+counter-clockwise with the front first. :func:`load_map` raises ``ValueError`` naming the bad field,
+e.g. ``obstacles[2].footprint must have shape (k, 2) with k >= 3``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import pathlib
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from stereo_nav_env.scenes.generator import FAMILIES, generate_scene
+from stereo_nav_env.scenes.parts import build_parts, make_obstacle, oriented_rect
+from stereo_nav_env.scenes.types import (
+    DEFAULT_COLOR,
+    DEFAULT_HEIGHT_M,
+    BoxPart,
+    Obstacle,
+    ObstacleKind,
+    Scene,
+    _color,
+    _err,
+    _number,
+    _polygon_array,
+    _vector,
+)
+
+__all__ = [
+    "MAPS_DIR",
+    "MAP_FORMAT",
+    "available_maps",
+    "load_map",
+    "load_scenario",
+    "save_map",
+    "scene_from_json",
+    "scene_to_json",
+]
+
+MAPS_DIR = pathlib.Path(__file__).resolve().parent.parent / "maps"
+"""The bundled maps, ``stereo_nav_env/maps/*.json``."""
+MAP_FORMAT = "stereo-nav-map/1"
+
+
+def _obstacle_to_json(ob: Obstacle) -> dict[str, Any]:
+    out: dict[str, Any] = {
+        "kind": ob.kind.value,
+        "footprint": np.round(ob.footprint, 6).tolist(),
+        "height": round(ob.height_m, 6),
+        "color": [round(c, 6) for c in ob.color],
+    }
+    default = build_parts(ob.kind, ob.footprint, ob.height_m, ob.color)
+    same = len(default) == len(ob.parts) and all(
+        a.footprint.shape == b.footprint.shape
+        and np.allclose(a.footprint, b.footprint, atol=1e-6)
+        and abs(a.z_min_m - b.z_min_m) < 1e-6
+        and abs(a.z_max_m - b.z_max_m) < 1e-6
+        and np.allclose(a.color, b.color, atol=1e-6)
+        for a, b in zip(default, ob.parts, strict=True)
+    )
+    if not same:
+        out["parts"] = [
+            {
+                "footprint": np.round(p.footprint, 6).tolist(),
+                "z": [p.z_min_m, p.z_max_m],
+                "color": list(p.color),
+            }
+            for p in ob.parts
+        ]
+    return out
+
+
+def scene_to_json(scene: Scene) -> dict[str, Any]:
+    """The JSON-ready dict of a scene (map format ``stereo-nav-map/1``, see the module doc)."""
+    return {
+        "format": MAP_FORMAT,
+        "name": scene.name,
+        "bounds": list(scene.bounds),
+        "start": list(scene.start),
+        "goal": list(scene.goal),
+        "obstacles": [_obstacle_to_json(ob) for ob in scene.obstacles],
+    }
+
+
+def save_map(scene: Scene, path: str | pathlib.Path) -> pathlib.Path:
+    """Write a scene as a JSON map file; returns the path."""
+    path = pathlib.Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(scene_to_json(scene), indent=1) + "\n")
+    return path
+
+
+def _obstacle_from_json(data: Any, field: str) -> Obstacle:
+    if not isinstance(data, Mapping):
+        raise _err(field, f"must be an object, got {type(data).__name__}")
+    unknown = sorted(set(data) - {"kind", "footprint", "rect", "height", "color", "parts"})
+    if unknown:
+        raise _err(field, f"has unknown keys {unknown}")
+    if "kind" not in data:
+        raise _err(f"{field}.kind", "is missing")
+    try:
+        kind = ObstacleKind(data["kind"])
+    except ValueError as exc:
+        choices = [k.value for k in ObstacleKind]
+        raise _err(f"{field}.kind", f"must be one of {choices}, got {data['kind']!r}") from exc
+    if ("footprint" in data) == ("rect" in data):
+        raise _err(field, "must have exactly one of 'footprint' or 'rect'")
+    if "footprint" in data:
+        fp = _polygon_array(data["footprint"], f"{field}.footprint")
+    else:
+        rect = data["rect"]
+        if not isinstance(rect, Mapping):
+            raise _err(f"{field}.rect", "must be an object with center, size, yaw_deg")
+        c = _vector(rect.get("center"), f"{field}.rect.center", 2)
+        size = _vector(rect.get("size"), f"{field}.rect.size", 2)
+        if size[0] <= 0 or size[1] <= 0:
+            raise _err(f"{field}.rect.size", f"must be positive, got {list(size)}")
+        yaw = math.radians(_number(rect.get("yaw_deg", 0.0), f"{field}.rect.yaw_deg"))
+        fp = oriented_rect(c, size[0], size[1], yaw)
+    height = _number(data.get("height", DEFAULT_HEIGHT_M[kind]), f"{field}.height")
+    if height <= 0:
+        raise _err(f"{field}.height", f"must be positive, got {height}")
+    color = _color(data["color"], f"{field}.color") if "color" in data else DEFAULT_COLOR[kind]
+    if "parts" not in data:
+        return make_obstacle(kind, fp, height, color)
+    raw_parts = data["parts"]
+    if not isinstance(raw_parts, list) or not raw_parts:
+        raise _err(f"{field}.parts", "must be a non-empty list")
+    parts = []
+    for k, p in enumerate(raw_parts):
+        pf = f"{field}.parts[{k}]"
+        if not isinstance(p, Mapping):
+            raise _err(pf, "must be an object")
+        pfp = _polygon_array(p.get("footprint"), f"{pf}.footprint")
+        z = _vector(p.get("z"), f"{pf}.z", 2)
+        if not 0 <= z[0] < z[1]:
+            raise _err(f"{pf}.z", f"must satisfy 0 <= z_min < z_max, got {list(z)}")
+        pc = _color(p["color"], f"{pf}.color") if "color" in p else color
+        parts.append(BoxPart(footprint=pfp, z_min_m=z[0], z_max_m=z[1], color=pc))
+    return Obstacle(kind=kind, footprint=fp, height_m=height, color=color, parts=tuple(parts))
+
+
+def scene_from_json(data: Any, *, default_name: str = "map") -> Scene:
+    """A scene from a parsed JSON map (see the module doc); ``ValueError`` names a bad field."""
+    if not isinstance(data, Mapping):
+        raise ValueError(f"map must be a JSON object, got {type(data).__name__}")
+    unknown = sorted(set(data) - {"format", "name", "bounds", "start", "goal", "obstacles"})
+    if unknown:
+        raise ValueError(f"map has unknown keys {unknown}")
+    if "format" in data and data["format"] != MAP_FORMAT:
+        raise _err("format", f"must be {MAP_FORMAT!r}, got {data['format']!r}")
+    for key in ("bounds", "start", "goal", "obstacles"):
+        if key not in data:
+            raise _err(key, "is missing")
+    name = data.get("name", default_name)
+    if not isinstance(name, str):
+        raise _err("name", f"must be a string, got {name!r}")
+    bounds = _vector(data["bounds"], "bounds", 4)
+    if not (bounds[0] < bounds[2] and bounds[1] < bounds[3]):
+        raise _err("bounds", f"must satisfy xmin < xmax and ymin < ymax, got {list(bounds)}")
+    start = _vector(data["start"], "start", 3)
+    goal = _vector(data["goal"], "goal", 2)
+    if not isinstance(data["obstacles"], list):
+        raise _err("obstacles", "must be a list")
+    obstacles = tuple(
+        _obstacle_from_json(ob, f"obstacles[{i}]") for i, ob in enumerate(data["obstacles"])
+    )
+    return Scene(name=name, bounds=bounds, obstacles=obstacles, start=start, goal=goal)  # type: ignore[arg-type]
+
+
+def load_map(path: str | pathlib.Path) -> Scene:
+    """Load a JSON map file (see the module docstring for the format).
+
+    Raises:
+        ValueError: The file is not valid JSON or a field is malformed (the message names it).
+    """
+    path = pathlib.Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"map {path} is not valid JSON: {exc}") from exc
+    return scene_from_json(data, default_name=path.stem)
+
+
+def available_maps() -> tuple[str, ...]:
+    """Names of the maps bundled in ``stereo_nav_env/maps``."""
+    return tuple(sorted(p.stem for p in MAPS_DIR.glob("*.json")))
+
+
+def load_scenario(scenario: str, seed: int = 0, *, robot_width_m: float = 0.5) -> Scene:
+    """A scene by name: a bundled map, a ``.json`` path, a family name, or ``"random"``.
+
+    Args:
+        scenario: ``"default"`` or another bundled map name, a path ending in ``.json``, one of
+            :data:`FAMILIES` (generated from ``seed``) or ``"random"`` (the family is drawn from
+            ``seed`` as well).
+        seed: Seed of generated scenes.
+        robot_width_m: Robot width the generator guarantees a route for.
+    """
+    if not isinstance(scenario, str) or not scenario:
+        raise ValueError(f"scenario must be a non-empty string, got {scenario!r}")
+    if scenario.endswith(".json"):
+        return load_map(scenario)
+    if scenario in available_maps():
+        return load_map(MAPS_DIR / f"{scenario}.json")
+    if scenario == "random":
+        family = FAMILIES[int(np.random.default_rng(seed).integers(len(FAMILIES)))]
+        return generate_scene(seed, family=family, robot_width_m=robot_width_m)
+    if scenario in FAMILIES:
+        return generate_scene(seed, family=scenario, robot_width_m=robot_width_m)
+    raise ValueError(
+        f"scenario must be a map name {list(available_maps())}, a .json path, a family "
+        f"{list(FAMILIES)} or 'random', got {scenario!r}"
+    )
