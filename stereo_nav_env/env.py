@@ -217,7 +217,9 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             spaces.Space[Obs], observation_space(self.config.observation, self.rig)
         )
         self._fixed_scene: Scene | None = (
-            None if self.config.is_generated else load_scenario(self.config.scenario)
+            None
+            if self.config.is_generated
+            else load_scenario(self.config.scenario, robot_width_m=self.config.world.robot_width_m)
         )
         self.scene: Scene | None = None
         self.world: World | None = None

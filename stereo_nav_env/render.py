@@ -140,6 +140,31 @@ def build_scene_mesh(scene: Scene, *, floor_margin_m: float = 0.5) -> trimesh.Tr
     )
 
 
+# Fork safety. Mesa's EGL/OSMesa state (the initialised display, the rasteriser's threads) does
+# not survive fork: in a child of a process that has made a context, making or using one hangs
+# for ever. So the process that first made a context is remembered, and a forked child of it
+# refuses to render with a RuntimeError that says what to do instead.
+_CONTEXT_PID: int | None = None
+"""The process that made this interpreter's first OpenGL context (``None``: none yet)."""
+
+FORK_MESSAGE = (
+    "this process was forked from one that had already rendered (pid {parent}): an OpenGL context "
+    "does not survive fork, and rendering here would hang. Make the environment in a fresh "
+    "process instead: use the 'spawn' start method, e.g. "
+    "gym.vector.AsyncVectorEnv(env_fns, context='spawn') or multiprocessing.get_context('spawn')."
+)
+
+
+def _no_op() -> None:
+    pass
+
+
+def check_not_forked() -> None:
+    """Raise ``RuntimeError`` in a forked child of a process that had made an OpenGL context."""
+    if _CONTEXT_PID is not None and _CONTEXT_PID != os.getpid():
+        raise RuntimeError(FORK_MESSAGE.format(parent=_CONTEXT_PID))
+
+
 def _keep_shared_display(renderer: Any) -> None:
     """Make an EGL renderer's ``delete`` destroy only its own context.
 
@@ -256,6 +281,8 @@ class StereoRenderer:
 
     # ------------------------------------------------------------------ context
     def _offscreen(self) -> Any:
+        global _CONTEXT_PID
+        check_not_forked()
         if self._renderer is None:
             try:
                 renderer = pyrender.OffscreenRenderer(self.rig.width_px, self.rig.height_px)
@@ -269,12 +296,19 @@ class StereoRenderer:
             _keep_shared_display(renderer)
             _read_color_without_depth(renderer)
             self._renderer = renderer
+            if _CONTEXT_PID is None:
+                _CONTEXT_PID = os.getpid()
         return self._renderer
 
     def close(self) -> None:
-        """Release the OpenGL context; idempotent. Rendering again creates a new one."""
+        """Release the OpenGL context; idempotent. Rendering again creates a new one.
+
+        In a forked child the inherited context is dropped without a call into OpenGL (which
+        would hang)."""
         renderer, self._renderer = self._renderer, None
-        if renderer is not None:
+        if renderer is not None and _CONTEXT_PID != os.getpid():
+            renderer.delete = _no_op  # its __del__ would call into the dead context
+        elif renderer is not None:
             try:
                 renderer.delete()
             except Exception:  # pragma: no cover - context already gone at interpreter exit

@@ -8,8 +8,30 @@ import pathlib
 from collections.abc import Iterator
 
 import pytest
+from hypothesis import HealthCheck, settings
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+
+# Hypothesis profiles: "ci" (the default: deterministic, a few hundred examples per property) and
+# "soak" (10,000 examples: ``make fuzz``). Tests with explicit @settings keep their own counts.
+_QUIET = [HealthCheck.too_slow, HealthCheck.data_too_large]
+settings.register_profile(
+    "ci",
+    max_examples=200,
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=_QUIET,
+)
+settings.register_profile(
+    "soak",
+    max_examples=10_000,
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=_QUIET,
+)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 from modeling.rig import StereoRig
 

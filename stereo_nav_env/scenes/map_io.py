@@ -64,10 +64,13 @@ import json
 import math
 import pathlib
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from shapely.geometry import Point
 
+from modeling.validation import positive
 from stereo_nav_env.scenes.generator import FAMILIES, generate_scene
 from stereo_nav_env.scenes.parts import build_parts, make_obstacle, oriented_rect
 from stereo_nav_env.scenes.types import (
@@ -87,7 +90,10 @@ from stereo_nav_env.scenes.types import (
 __all__ = [
     "MAPS_DIR",
     "MAP_FORMAT",
+    "MAP_LIMITS",
+    "MapLimits",
     "available_maps",
+    "check_navigable",
     "load_map",
     "load_scenario",
     "save_map",
@@ -148,6 +154,35 @@ def save_map(scene: Scene, path: str | pathlib.Path) -> pathlib.Path:
     return path
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
+class MapLimits:
+    """What a map file may hold, so that no file makes loading or a reset take minutes.
+
+    Attributes:
+        max_bytes: Size of the file, bytes.
+        max_obstacles: Obstacles.
+        max_vertices: Vertices of one footprint or part.
+        max_parts: Rendering parts of one obstacle.
+        max_area_m2: Area of the bounds, square metres (the geodesic grid of the rewards covers
+            it with 5 cm cells).
+    """
+
+    max_bytes: int = 4 * 2**20
+    max_obstacles: int = 1_000
+    max_vertices: int = 256
+    max_parts: int = 64
+    max_area_m2: float = 2_500.0
+
+
+MAP_LIMITS = MapLimits()
+"""The limits :func:`load_map` and :func:`scene_from_json` enforce."""
+
+
+def _limited(items: Any, field: str, limit: int, what: str) -> None:
+    if isinstance(items, list) and len(items) > limit:
+        raise _err(field, f"has {len(items)} {what}, more than the limit of {limit}")
+
+
 def _obstacle_from_json(data: Any, field: str) -> Obstacle:
     if not isinstance(data, Mapping):
         raise _err(field, f"must be an object, got {type(data).__name__}")
@@ -164,6 +199,7 @@ def _obstacle_from_json(data: Any, field: str) -> Obstacle:
     if ("footprint" in data) == ("rect" in data):
         raise _err(field, "must have exactly one of 'footprint' or 'rect'")
     if "footprint" in data:
+        _limited(data["footprint"], f"{field}.footprint", MAP_LIMITS.max_vertices, "vertices")
         fp = _polygon_array(data["footprint"], f"{field}.footprint")
     else:
         rect = data["rect"]
@@ -184,11 +220,13 @@ def _obstacle_from_json(data: Any, field: str) -> Obstacle:
     raw_parts = data["parts"]
     if not isinstance(raw_parts, list) or not raw_parts:
         raise _err(f"{field}.parts", "must be a non-empty list")
+    _limited(raw_parts, f"{field}.parts", MAP_LIMITS.max_parts, "parts")
     parts = []
     for k, p in enumerate(raw_parts):
         pf = f"{field}.parts[{k}]"
         if not isinstance(p, Mapping):
             raise _err(pf, "must be an object")
+        _limited(p.get("footprint"), f"{pf}.footprint", MAP_LIMITS.max_vertices, "vertices")
         pfp = _polygon_array(p.get("footprint"), f"{pf}.footprint")
         z = _vector(p.get("z"), f"{pf}.z", 2)
         if not 0 <= z[0] < z[1]:
@@ -216,10 +254,16 @@ def scene_from_json(data: Any, *, default_name: str = "map") -> Scene:
     bounds = _vector(data["bounds"], "bounds", 4)
     if not (bounds[0] < bounds[2] and bounds[1] < bounds[3]):
         raise _err("bounds", f"must satisfy xmin < xmax and ymin < ymax, got {list(bounds)}")
+    area = (bounds[2] - bounds[0]) * (bounds[3] - bounds[1])
+    if area > MAP_LIMITS.max_area_m2:
+        raise _err(
+            "bounds", f"cover {area:.6g} m^2, more than the limit of {MAP_LIMITS.max_area_m2} m^2"
+        )
     start = _vector(data["start"], "start", 3)
     goal = _vector(data["goal"], "goal", 2)
     if not isinstance(data["obstacles"], list):
         raise _err("obstacles", "must be a list")
+    _limited(data["obstacles"], "obstacles", MAP_LIMITS.max_obstacles, "entries")
     obstacles = tuple(
         _obstacle_from_json(ob, f"obstacles[{i}]") for i, ob in enumerate(data["obstacles"])
     )
@@ -233,11 +277,50 @@ def load_map(path: str | pathlib.Path) -> Scene:
         ValueError: The file is not valid JSON or a field is malformed (the message names it).
     """
     path = pathlib.Path(path)
+    size = path.stat().st_size
+    if size > MAP_LIMITS.max_bytes:
+        raise ValueError(
+            f"map {path} has {size} bytes, more than the limit of {MAP_LIMITS.max_bytes}"
+        )
     try:
-        data = json.loads(path.read_text())
+        data = json.loads(path.read_bytes().decode("utf-8"), parse_constant=_no_constant)
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"map {path} is not UTF-8 text: {exc}") from exc
     except json.JSONDecodeError as exc:
         raise ValueError(f"map {path} is not valid JSON: {exc}") from exc
+    except RecursionError as exc:
+        raise ValueError(f"map {path} nests too deeply") from exc
     return scene_from_json(data, default_name=path.stem)
+
+
+def _no_constant(name: str) -> Any:
+    raise ValueError(f"map values must be finite numbers, got {name}")
+
+
+def check_navigable(scene: Scene, robot_width_m: float) -> Scene:
+    """``scene`` if a robot of ``robot_width_m`` can drive it: start and goal clear of every
+    footprint by the robot's radius and inside the bounds, and the goal reachable for the
+    robot's disc.
+
+    Raises:
+        ValueError: Naming ``start`` or ``goal`` (with the nearest obstacle), or the route.
+    """
+    radius = positive(robot_width_m, "robot_width_m") / 2.0
+    for field, xy in (("start", scene.start[:2]), ("goal", scene.goal)):
+        if scene.is_free(xy, robot_width_m, margin_m=0.0):
+            continue
+        point = Point(*xy)
+        dist = [ob.polygon.distance(point) for ob in scene.obstacles]
+        near = int(np.argmin(dist)) if dist else -1
+        where = f"; obstacles[{near}] is {dist[near]:.3g} m away" if near >= 0 else ""
+        raise _err(
+            field,
+            f"{[round(v, 6) for v in xy]} must be inside the bounds and clear of every obstacle "
+            f"by the robot's radius {radius:g} m{where}",
+        )
+    if not scene.route_exists(robot_width_m, margin_m=0.0):
+        raise _err("goal", f"cannot be reached from start by a robot {robot_width_m:g} m wide")
+    return scene
 
 
 def available_maps() -> tuple[str, ...]:
@@ -258,9 +341,9 @@ def load_scenario(scenario: str, seed: int = 0, *, robot_width_m: float = 0.5) -
     if not isinstance(scenario, str) or not scenario:
         raise ValueError(f"scenario must be a non-empty string, got {scenario!r}")
     if scenario.endswith(".json"):
-        return load_map(scenario)
+        return check_navigable(load_map(scenario), robot_width_m)
     if scenario in available_maps():
-        return load_map(MAPS_DIR / f"{scenario}.json")
+        return check_navigable(load_map(MAPS_DIR / f"{scenario}.json"), robot_width_m)
     if scenario == "random":
         family = FAMILIES[int(np.random.default_rng(seed).integers(len(FAMILIES)))]
         return generate_scene(seed, family=family, robot_width_m=robot_width_m)
