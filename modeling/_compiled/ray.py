@@ -1,33 +1,75 @@
-"""Compiled loops of the occlusion sweep (:func:`modeling.model._occlusion`): the nearest segment
-along each ray, and the shadow polygons of the runs of blocked rays.
+"""Compiled loops of the occlusion sweep (:func:`modeling.occlusion.occluded_area`): the nearest
+segment along each ray, and the shadow polygons of the runs of blocked rays. Their readable
+references are :func:`modeling.occlusion.nearest_hits_reference` and
+:func:`modeling.occlusion.shadow_rings_reference`.
 
-Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not import
-Numba.
+Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not
+import Numba.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 
 from modeling._compiled.jit import compiled_on_first_call
 
 
-@compiled_on_first_call
-def nearest_hits(
-    u: np.ndarray, p: np.ndarray, e: np.ndarray, k0: np.ndarray, count: np.ndarray
-) -> np.ndarray:
-    """Distance along each ray to the nearest segment it crosses (``inf``: none).
+class RaysAndSegments(NamedTuple):
+    """Rays from one origin and the segments to intersect them with.
 
-    Args:
-        u: (B, 2) unit direction of each ray.
-        p: (n, 2) first endpoint of each segment, relative to the rays' origin.
-        e: (n, 2) each segment's second endpoint minus its first.
-        k0: (n,) first ray within each segment's angular span.
-        count: (n,) number of consecutive rays from ``k0`` to intersect with it (0: none).
+    Attributes:
+        u: (B, 2) float64, unit direction of each ray.
+        p: (n, 2) float64, first endpoint of each segment, relative to the rays' origin, metres.
+        e: (n, 2) float64, each segment's second endpoint minus its first, metres.
+        k0: (n,) int64, first ray within each segment's angular span.
+        count: (n,) int64, number of consecutive rays from ``k0`` to intersect with it (0: none).
+    """
+
+    u: np.ndarray
+    p: np.ndarray
+    e: np.ndarray
+    k0: np.ndarray
+    count: np.ndarray
+
+
+class RaySweep(NamedTuple):
+    """The rays of a sweep and their nearest hits.
+
+    Attributes:
+        origin: (2,) float64, the rays' origin, world frame, metres.
+        u: (B, 2) float64, unit direction of each ray, in angular order.
+        hit: (B,) float64, distance to the nearest hit of each ray (``inf``: none), metres.
+        max_range: Range, metres.
+    """
+
+    origin: np.ndarray
+    u: np.ndarray
+    hit: np.ndarray
+    max_range: float
+
+
+class Rings(NamedTuple):
+    """Polygon rings one after another.
+
+    Attributes:
+        vertices: (v, 2) float64, the rings (not closed), metres.
+        sizes: (r,) int64, the vertices of each ring.
+    """
+
+    vertices: np.ndarray
+    sizes: np.ndarray
+
+
+@compiled_on_first_call
+def nearest_hits(rays: RaysAndSegments) -> np.ndarray:
+    """Distance along each ray to the nearest segment it crosses (``inf``: none).
 
     Returns:
         (B,) the smallest ``r > 1e-9`` with ``r u = p + s e``, ``s`` in [0, 1] (1e-9 slack).
     """
+    u, p, e, k0, count = rays.u, rays.p, rays.e, rays.k0, rays.count
     out = np.full(u.shape[0], np.inf)
     for k in range(p.shape[0]):
         px, py, ex, ey = p[k, 0], p[k, 1], e[k, 0], e[k, 1]
@@ -44,25 +86,17 @@ def nearest_hits(
 
 
 @compiled_on_first_call
-def shadow_rings(
-    origin: np.ndarray, u: np.ndarray, hit: np.ndarray, max_range: float
-) -> tuple[np.ndarray, np.ndarray]:
+def shadow_rings(sweep: RaySweep) -> Rings:
     """The occluded polygons of a ray sweep: one ring per run of consecutive blocked rays.
 
     A ray is blocked when its hit is nearer than ``max_range``. A run's ring goes through the
     hit points of its rays, then back along the range arc, which reaches one ray beyond each end
     of the run (the shadow's edge lies between a blocked and a free ray).
 
-    Args:
-        origin: (2,) the rays' origin.
-        u: (B, 2) unit direction of each ray, in angular order.
-        hit: (B,) distance to the nearest hit of each ray (``inf``: none).
-        max_range: Range, metres.
-
     Returns:
-        ``(vertices, sizes)``: (v, 2) the rings (not closed) one after another, and (r,) the
-        vertices of each.
+        The rings, one per run.
     """
+    origin, u, hit, max_range = sweep.origin, sweep.u, sweep.hit, sweep.max_range
     n = hit.shape[0]
     n_blocked = 0
     n_runs = 0
@@ -96,4 +130,4 @@ def shadow_rings(
             out[v, 1] = origin[1] + max_range * u[r, 1]
             v += 1
         sizes[run] = v - start
-    return out[:v], sizes
+    return Rings(out[:v], sizes)
