@@ -131,8 +131,8 @@ def units_moving_together(
         vp = np.asarray(observation.viewpoint[:2])
         mid_dist = np.hypot(*(ends.mean(axis=1) - vp).T).tolist()
         for a in live:
-            ids = cand_item[a]
-            order_of[a] = sorted(range(len(ids)), key=lambda k, ids=ids: mid_dist[ids[k]])
+            dist = [mid_dist[x] for x in cand_item[a]]
+            order_of[a] = sorted(range(len(dist)), key=dist.__getitem__)
     amb = observation.ambiguous
     units = []
     for members in _moving_together(live, cand_item, order_of, ends, width):

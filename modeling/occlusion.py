@@ -73,7 +73,7 @@ def occluded_area(obs: FloorObservation, ends: FloatArray, n_rays: int = 361) ->
     cnt = np.where(ok, np.maximum(k1 - k0 + 1, 0), 0)
     if not cnt.any():
         return _EMPTY_POLYGON
-    hit = _ray_kernel.nearest_hits(RaysAndSegments(u=u, p=p, e=e, k0=k0, count=cnt))
+    hit = _ray_kernel.nearest_hits(RaysAndSegments(u=u, p=p, e=e, k0=k0, n_rays=cnt))
     # Runs of consecutive blocked rays -> polygons (the wedge minus the star polygon of the ray
     # hits), all rings in one vectorised call (shapely closes each ring, as Polygon(shell) does).
     rings = _ray_kernel.shadow_rings(RaySweep(origin=vp, u=u, hit=hit, max_range=R))
@@ -93,13 +93,13 @@ def nearest_hits_reference(rays: RaysAndSegments) -> FloatArray:
 
     Ray ``k`` (direction ``u_k``) meets segment ``p + s e`` at ``r u_k = p + s e``; the hit
     counts when ``s`` is in [0, 1] (1e-9 slack) and ``r > 1e-9``, rays parallel to the segment
-    (``|u_k x e| <= 1e-15``) excepted. Only the rays ``k0 .. k0 + count - 1`` of each segment
+    (``|u_k x e| <= 1e-15``) excepted. Only the rays ``k0 .. k0 + n_rays - 1`` of each segment
     are tried.
 
     Returns:
         (B,) the smallest such ``r`` of each ray.
     """
-    count = rays.count
+    count = rays.n_rays
     seg = np.repeat(np.arange(rays.p.shape[0]), count)  # (segment, ray) pairs to try
     ray = rays.k0[seg] + np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
     ux, uy = rays.u[ray, 0], rays.u[ray, 1]

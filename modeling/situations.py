@@ -87,8 +87,8 @@ def enumerate_situations(
         choice: dict[int, int] = {}
         chosen: list[int] = []
         for pos, rank in enumerate(state):
-            items, cands = ranked[pos][rank]
-            chosen.extend(items)
+            unit_items, cands = ranked[pos][rank]
+            chosen.extend(unit_items)
             choice.update(cands)
         active[chosen] = True
         actives.append(active)
@@ -206,23 +206,20 @@ class _Context:
 
     def prepare(self, parts: list[_Partition]) -> None:
         """Build, in one batch, the obstacles and region polygons of ``parts`` (each once, from
-        the first situation that has it; shared by content between situations), and set each
-        part's ``obstacles`` and ``region_polygons``."""
-        # Situations share obstacles and regions by content (their items' and rows' bytes); a
-        # lone situation shares nothing, so its own indices serve as keys.
-        shared = len(parts) > 1
-        new_keys: list[bytes | int] = []  # the new obstacles, in the order of their new id
-        seen: set[bytes | int] = set()
+        the first situation that has it; shared by content, their items' and relation rows'
+        bytes, between situations), and set each part's ``obstacles`` and ``region_polygons``."""
+        new_keys: list[bytes] = []  # the new obstacles, in the order of their new id
+        seen: set[bytes] = set()
         it_parts: list[np.ndarray] = []  # their items, grouped by new id
         ob_parts: list[np.ndarray] = []  # the new id of each of those items
         link_parts: list[np.ndarray] = []  # their impassable links (relation rows)
         lob_parts: list[np.ndarray] = []  # the new id of each of those links
-        new_regions: dict[bytes | int, np.ndarray] = {}
-        keys: list[list[bytes] | range] = []
-        region_keys: list[list[bytes] | range] = []
+        new_regions: dict[bytes, np.ndarray] = {}
+        keys: list[list[bytes]] = []
+        region_keys: list[list[bytes]] = []
         for part in parts:
-            keys.append(part.keys() if shared else range(part.n_obst))
-            region_keys.append(part.region_keys() if shared else range(len(part.region_rows)))
+            keys.append(part.keys())
+            region_keys.append(part.region_keys())
             todo = []
             for c, key in enumerate(keys[-1]):
                 if key not in seen:
@@ -285,7 +282,7 @@ class _Context:
 
 def _oriented(ctx: _Context, rows: np.ndarray, i_first: np.ndarray) -> FloatArray:
     """(k, 2, 2) closest points of relation rows, the point on the lower-index obstacle first."""
-    out = ctx.links[rows]
+    out: FloatArray = ctx.links[rows]
     out[~i_first] = out[~i_first, ::-1]
     out.setflags(write=False)
     return out

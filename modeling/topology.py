@@ -53,8 +53,8 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import Delaunay, QhullError, cKDTree
 
+from modeling.records import EnvironmentModel, Situation
 from modeling.validation import FloatArray, finite_array, positive
-from modeling.model import EnvironmentModel, Situation
 
 __all__ = ["Route", "model_routes", "path_graph", "routes", "situation_graph"]
 
@@ -107,16 +107,21 @@ def situation_graph(
         ValueError: ``situation`` is neither a situation of ``model`` nor a valid index, or bad
             arguments (naming them).
     """
-    if isinstance(situation, int | np.integer) and not isinstance(situation, bool):
+    chosen: Situation
+    if isinstance(situation, Situation):
+        if not any(situation is s for s in model.situations):
+            raise ValueError("situation must be one of model.situations or an index into it")
+        chosen = situation
+    elif isinstance(situation, int | np.integer) and not isinstance(situation, bool):
         if not 0 <= int(situation) < len(model.situations):
             raise ValueError(
                 f"situation index {situation} out of range for {len(model.situations)} situations"
             )
-        situation = model.situations[int(situation)]
-    elif not any(situation is s for s in model.situations):
+        chosen = model.situations[int(situation)]
+    else:
         raise ValueError("situation must be one of model.situations or an index into it")
     width = model.robot_width_m if robot_width_m is None else robot_width_m
-    return path_graph(situation, start_xy, goal_xy, robot_width_m=width, **kw)
+    return path_graph(chosen, start_xy, goal_xy, robot_width_m=width, **kw)
 
 
 def model_routes(
@@ -223,15 +228,15 @@ def path_graph(
     for k, pas in enumerate(situation.passages):
         specs.append(("passage", k, np.asarray(pas.narrowest), pas.p_passable, pas.obstacles, None))
         barriers.append(_lines(np.asarray(pas.narrowest))[0])
-    for kind, k, narrow, p, (oi, oj), poly in specs:
+    for kind, k, narrow, p, (oi, oj), outline in specs:
         a, b = narrow[0], narrow[1]
         d = b - a
         length = float(np.hypot(*d))
         nrm = np.array([-d[1], d[0]]) / length if length > 1e-12 else np.array([1.0, 0.0])
         mid = 0.5 * (a + b)
         plus = minus = r + margin
-        if poly is not None and poly.shape[0]:
-            proj = (poly - mid) @ nrm
+        if outline is not None and outline.shape[0]:
+            proj = (outline - mid) @ nrm
             plus = max(plus, float(proj.max()) + margin)
             minus = max(minus, float(-proj.min()) + margin)
         for side, pos in enumerate((mid + plus * nrm, mid - minus * nrm)):
@@ -547,4 +552,5 @@ def _lines(coords: FloatArray) -> np.ndarray:
     if np.any(zero):
         coords = coords.copy()
         coords[zero, 1, 0] += 1e-6
-    return shapely.linestrings(coords)
+    out: np.ndarray = shapely.linestrings(coords)
+    return out

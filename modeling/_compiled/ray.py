@@ -24,14 +24,15 @@ class RaysAndSegments(NamedTuple):
         p: (n, 2) float64, first endpoint of each segment, relative to the rays' origin, metres.
         e: (n, 2) float64, each segment's second endpoint minus its first, metres.
         k0: (n,) int64, first ray within each segment's angular span.
-        count: (n,) int64, number of consecutive rays from ``k0`` to intersect with it (0: none).
+        n_rays: (n,) int64, number of consecutive rays from ``k0`` to intersect with it (0:
+            none).
     """
 
     u: np.ndarray
     p: np.ndarray
     e: np.ndarray
     k0: np.ndarray
-    count: np.ndarray
+    n_rays: np.ndarray
 
 
 class RaySweep(NamedTuple):
@@ -69,7 +70,7 @@ def nearest_hits(rays: RaysAndSegments) -> np.ndarray:
     Returns:
         (B,) the smallest ``r > 1e-9`` with ``r u = p + s e``, ``s`` in [0, 1] (1e-9 slack).
     """
-    u, p, e, k0, count = rays.u, rays.p, rays.e, rays.k0, rays.count
+    u, p, e, k0, count = rays.u, rays.p, rays.e, rays.k0, rays.n_rays
     out = np.full(u.shape[0], np.inf)
     for k in range(p.shape[0]):
         px, py, ex, ey = p[k, 0], p[k, 1], e[k, 0], e[k, 1]
