@@ -105,7 +105,7 @@ class _Partition:
 
     Computed for every situation first (:func:`_partition`), so that the obstacles and region
     polygons that no earlier situation built are built for all situations in one batch
-    (:meth:`_Context.prepare`) before the situations are assembled (:func:`_assemble`).
+    (:meth:`_Context.prepare`) before the situations are assembled (:func:`_situations`).
 
     Attributes:
         n_obst: Number of obstacles.
@@ -306,13 +306,36 @@ def _pair_groups(
     return rows, starts, lo[srt][starts], hi[srt][starts]
 
 
-def _partition(ctx: _Context, active: np.ndarray) -> _Partition:
-    """Obstacles of the situation whose items are ``active``, and its relations between them."""
+def _obstacle_labels(ctx: _Context, actives: list[np.ndarray]) -> list[np.ndarray]:
+    """For each situation (its active items), the component label of each item: the smallest
+    item of its obstacle (a component of the impassable relations among its active items).
+
+    All situations are labelled in one call: situation ``k``'s item ``x`` is node ``k N + x`` of
+    one graph, so no component spans two situations and its smallest node is ``k N`` plus the
+    smallest item.
+    """
+    rel = ctx.rel
+    n = ctx.ends.shape[0]
+    rows = [(active[rel.i] & active[rel.j] & ctx.is_imp).nonzero()[0] for active in actives]
+    shift = [np.full(r.shape[0], k * n, dtype=np.int64) for k, r in enumerate(rows)]
+    i = np.concatenate([rel.i[r] for r in rows]) + np.concatenate(shift)
+    j = np.concatenate([rel.j[r] for r in rows]) + np.concatenate(shift)
+    labels = components(len(actives) * n, i, j).reshape(len(actives), n)
+    return list(labels - n * np.arange(len(actives))[:, None])
+
+
+def _partition(ctx: _Context, active: np.ndarray, labels: np.ndarray) -> _Partition:
+    """Obstacles of the situation whose items are ``active``, and its relations between them.
+
+    Args:
+        ctx: The model's context.
+        active: (N,) the situation's items.
+        labels: (N,) their obstacle labels (see :func:`_obstacle_labels`).
+    """
     rel = ctx.rel
     n = active.shape[0]
     both = active[rel.i] & active[rel.j]
     imp_rows = (both & ctx.is_imp).nonzero()[0]
-    labels = components(n, rel.i[imp_rows], rel.j[imp_rows])
     act_idx = active.nonzero()[0]
     # Obstacles numbered in order of their smallest item (a component's label): the roots (the
     # active items that are their own label) in ascending order.
@@ -431,7 +454,8 @@ def _situations(
     Three passes: the partitions of all situations, then one batch for every obstacle and region
     polygon not cached yet, then the situations (their width moments in situation order).
     """
-    parts = [_partition(ctx, active) for active in actives]
+    labels = _obstacle_labels(ctx, actives)
+    parts = [_partition(ctx, a, lab) for a, lab in zip(actives, labels, strict=True)]
     ctx.prepare(parts)
     return [
         Situation(
