@@ -40,8 +40,8 @@ def components(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
         (n,) int64 label of each node: the smallest node of its component (so components are
         numbered in the order of their smallest node wherever the labels are sorted).
     """
-    if n == 0:
-        return np.zeros(0, dtype=np.int64)
+    if len(i) == 0:  # no edges: every node is its own component (no need for csgraph)
+        return np.arange(n, dtype=np.int64)
     # The edges as a sparse matrix in CSR form (rows sorted by i): half the cost of a COO one.
     order = np.argsort(i, kind="stable")
     row_starts = np.searchsorted(i[order], np.arange(n + 1)).astype(np.int32)

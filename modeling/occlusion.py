@@ -2,9 +2,9 @@
 
 The occluded area is what lies behind the kept segments (and merged candidates) seen from the
 viewpoint, within the field-of-view wedge of radius ``max_range_m``: an angular sweep of rays
-finds the nearest segment along each ray (:func:`nearest_hits_reference`), and each run of
-consecutive blocked rays gives one shadow polygon (:func:`shadow_rings_reference`). It is
-computed once per model and treated as free space by the planners.
+finds the nearest segment along each ray (:func:`nearest_hits`), and each run of consecutive
+blocked rays gives one shadow polygon (:func:`shadow_rings`). It is computed once per model and
+treated as free space by the planners.
 
 Frames: world, metres; angles radians.
 """
@@ -12,23 +12,72 @@ Frames: world, metres; angles radians.
 from __future__ import annotations
 
 import functools
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import shapely
 
-from modeling._compiled import ray as _ray_kernel
-from modeling._compiled.ray import RaysAndSegments, RaySweep, Rings
 from modeling.geometry import wrap_angle
 from modeling.observation import FloorObservation
 from modeling.validation import FloatArray
 
 __all__ = [
-    "nearest_hits_reference",
+    "RaySweep",
+    "RaysAndSegments",
+    "Rings",
+    "nearest_hits",
     "occluded_area",
     "polygons_of",
-    "shadow_rings_reference",
+    "shadow_rings",
 ]
+
+
+class RaysAndSegments(NamedTuple):
+    """Rays from one origin and the segments to intersect them with.
+
+    Attributes:
+        u: (B, 2) unit direction of each ray.
+        p: (n, 2) first endpoint of each segment, relative to the rays' origin, metres.
+        e: (n, 2) each segment's second endpoint minus its first, metres.
+        k0: (n,) int64, first ray within each segment's angular span.
+        n_rays: (n,) int64, number of consecutive rays from ``k0`` to intersect with it (0:
+            none).
+    """
+
+    u: np.ndarray
+    p: np.ndarray
+    e: np.ndarray
+    k0: np.ndarray
+    n_rays: np.ndarray
+
+
+class RaySweep(NamedTuple):
+    """The rays of a sweep and their nearest hits.
+
+    Attributes:
+        origin: (2,) the rays' origin, world frame, metres.
+        u: (B, 2) unit direction of each ray, in angular order.
+        hit: (B,) distance to the nearest hit of each ray (``inf``: none), metres.
+        max_range: Range, metres.
+    """
+
+    origin: np.ndarray
+    u: np.ndarray
+    hit: np.ndarray
+    max_range: float
+
+
+class Rings(NamedTuple):
+    """Polygon rings one after another.
+
+    Attributes:
+        vertices: (v, 2) the rings (not closed), metres.
+        sizes: (r,) int64, the vertices of each ring.
+    """
+
+    vertices: np.ndarray
+    sizes: np.ndarray
+
 
 # The empty result of ``occluded_area`` (shapely geometries are immutable: one can be shared, and
 # building it costs more than the rest of a small occlusion sweep).
@@ -73,10 +122,10 @@ def occluded_area(obs: FloorObservation, ends: FloatArray, n_rays: int = 361) ->
     cnt = np.where(ok, np.maximum(k1 - k0 + 1, 0), 0)
     if not cnt.any():
         return _EMPTY_POLYGON
-    hit = _ray_kernel.nearest_hits(RaysAndSegments(u=u, p=p, e=e, k0=k0, n_rays=cnt))
+    hit = nearest_hits(RaysAndSegments(u=u, p=p, e=e, k0=k0, n_rays=cnt))
     # Runs of consecutive blocked rays -> polygons (the wedge minus the star polygon of the ray
     # hits), all rings in one vectorised call (shapely closes each ring, as Polygon(shell) does).
-    rings = _ray_kernel.shadow_rings(RaySweep(origin=vp, u=u, hit=hit, max_range=R))
+    rings = shadow_rings(RaySweep(origin=vp, u=u, hit=hit, max_range=R))
     n_rings = rings.sizes.shape[0]
     if n_rings == 0:
         return _EMPTY_POLYGON
@@ -86,10 +135,9 @@ def occluded_area(obs: FloorObservation, ends: FloatArray, n_rays: int = 361) ->
     return polys[0] if n_rings == 1 else shapely.multipolygons(polys)
 
 
-def nearest_hits_reference(rays: RaysAndSegments) -> FloatArray:
-    """Distance along each ray to the nearest segment it crosses (``inf``: none), in NumPy: the
-    readable reference of the compiled :func:`modeling._compiled.ray.nearest_hits` (section 4.1,
-    occlusion; equal results).
+def nearest_hits(rays: RaysAndSegments) -> FloatArray:
+    """Distance along each ray to the nearest segment it crosses (``inf``: none; section 4.1,
+    occlusion).
 
     Ray ``k`` (direction ``u_k``) meets segment ``p + s e`` at ``r u_k = p + s e``; the hit
     counts when ``s`` is in [0, 1] (1e-9 slack) and ``r > 1e-9``, rays parallel to the segment
@@ -114,9 +162,8 @@ def nearest_hits_reference(rays: RaysAndSegments) -> FloatArray:
     return out
 
 
-def shadow_rings_reference(sweep: RaySweep) -> Rings:
-    """The occluded polygons of a ray sweep, in NumPy: the readable reference of the compiled
-    :func:`modeling._compiled.ray.shadow_rings` (section 4.1, occlusion; equal results).
+def shadow_rings(sweep: RaySweep) -> Rings:
+    """The occluded polygons of a ray sweep (section 4.1, occlusion).
 
     A ray is blocked when its hit is nearer than ``max_range``. Each run of consecutive blocked
     rays gives one ring: the hit points of its rays, then back along the range arc, which reaches
