@@ -52,7 +52,7 @@ class Obstacle:
         """The skeleton grown by ``radius_m`` (> 0) as a shapely geometry (may have holes)."""
         r = positive(radius_m, "radius_m")
         lines = self.lines if self.lines.shape[0] else self.points.reshape(-1, 2, 2)
-        return shapely.buffer(shapely.multilinestrings(_safe_lines(lines)), r, quad_segs=4)
+        return shapely.buffer(shapely.multilinestrings(safe_linestrings(lines)), r, quad_segs=4)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
@@ -200,11 +200,14 @@ class EnvironmentModel:
         return np.array([s.probability for s in self.situations])
 
 
-def _safe_lines(coords: FloatArray) -> Any:
-    """shapely LineStrings of (q, 2, 2) coordinates; zero-length lines are nudged to 1 micron."""
+def safe_linestrings(coords: FloatArray) -> np.ndarray:
+    """shapely LineStrings of (q, 2, 2) coordinates (metres); zero-length lines are nudged to 1
+    micron along x, so that every line has a length."""
+    coords = np.asarray(coords, dtype=np.float64).reshape(-1, 2, 2)
     d = coords[:, 1] - coords[:, 0]
     zero = np.hypot(d[:, 0], d[:, 1]) < 1e-9
     if np.any(zero):
         coords = coords.copy()
         coords[zero, 1, 0] += 1e-6
-    return shapely.linestrings(coords)
+    out: np.ndarray = shapely.linestrings(coords)
+    return out
