@@ -30,10 +30,11 @@ _EXPORTS: dict[str, str] = {
     "Relation": "modeling.gaps",
     "classify_gap": "modeling.gaps",
     "build_model": "modeling.model",
-    "EnvironmentModel": "modeling.model",
-    "Situation": "modeling.model",
-    "Obstacle": "modeling.model",
-    "CriticalRegion": "modeling.model",
+    "EnvironmentModel": "modeling.records",
+    "Situation": "modeling.records",
+    "Obstacle": "modeling.records",
+    "CriticalRegion": "modeling.records",
+    "Passage": "modeling.records",
     "model_from_stereo": "modeling.pipeline",
 }
 
@@ -46,6 +47,7 @@ __all__ = [
     "HeadPose",
     "ImageSegments",
     "Obstacle",
+    "Passage",
     "Relation",
     "Situation",
     "StereoMatches",
@@ -65,15 +67,10 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from modeling.faces import close_faces
     from modeling.gaps import Relation, classify_gap, gap_passable_probability
     from modeling.matching import StereoMatches, match_segments
-    from modeling.model import (
-        CriticalRegion,
-        EnvironmentModel,
-        Obstacle,
-        Situation,
-        build_model,
-    )
+    from modeling.model import build_model
     from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
     from modeling.pipeline import model_from_stereo
+    from modeling.records import CriticalRegion, EnvironmentModel, Obstacle, Passage, Situation
     from modeling.rig import HeadPose, StereoRig
     from modeling.segments import ImageSegments, extract_segment_pair, extract_segments
     from modeling.triangulation import triangulate_to_floor

@@ -49,7 +49,8 @@ class FloorSegment:
     @property
     def midpoint(self) -> FloatArray:
         """(2,) mean of the two endpoint means."""
-        return self.endpoints.mean(axis=0)
+        out: FloatArray = self.endpoints.mean(axis=0)
+        return out
 
     def transformed(self, R: FloatArray, t: FloatArray) -> FloorSegment:
         """This segment under the rigid motion ``p -> R p + t`` (R a 2x2 rotation)."""

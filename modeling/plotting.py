@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from modeling.model import EnvironmentModel
+from modeling.records import EnvironmentModel
 
 __all__ = ["plot_model"]
 
@@ -22,7 +22,8 @@ def _ellipse_xy(mean: np.ndarray, cov: np.ndarray, k: float = 2.0, n: int = 24) 
     vals, vecs = np.linalg.eigh(cov)
     t = np.linspace(0, 2 * math.pi, n)
     circle = np.stack([np.cos(t), np.sin(t)], axis=1) * (k * np.sqrt(np.maximum(vals, 0)))
-    return mean + circle @ vecs.T
+    out: np.ndarray = mean + circle @ vecs.T
+    return out
 
 
 def plot_model(
@@ -108,7 +109,8 @@ def plot_model(
             m = nw.mean(axis=0)
             a.text(m[0], m[1], f"{reg.p_passable:.2f}", fontsize=8, color="darkred", zorder=6)
         # Ambiguous segments: every candidate thin and dotted, the chosen one thick.
-        others, chosen = [], []
+        others: list[np.ndarray] = []
+        chosen: list[np.ndarray] = []
         for ai, amb in enumerate(obs.ambiguous):
             pick = sit.choice.get(ai, model.merged_ambiguous.get(ai))
             for ci, cand in enumerate(amb.candidates):

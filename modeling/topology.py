@@ -53,8 +53,8 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import Delaunay, QhullError, cKDTree
 
+from modeling.records import EnvironmentModel, Situation, safe_linestrings
 from modeling.validation import FloatArray, finite_array, positive
-from modeling.model import EnvironmentModel, Situation
 
 __all__ = ["Route", "model_routes", "path_graph", "routes", "situation_graph"]
 
@@ -107,16 +107,21 @@ def situation_graph(
         ValueError: ``situation`` is neither a situation of ``model`` nor a valid index, or bad
             arguments (naming them).
     """
-    if isinstance(situation, int | np.integer) and not isinstance(situation, bool):
+    chosen: Situation
+    if isinstance(situation, Situation):
+        if not any(situation is s for s in model.situations):
+            raise ValueError("situation must be one of model.situations or an index into it")
+        chosen = situation
+    elif isinstance(situation, int | np.integer) and not isinstance(situation, bool):
         if not 0 <= int(situation) < len(model.situations):
             raise ValueError(
                 f"situation index {situation} out of range for {len(model.situations)} situations"
             )
-        situation = model.situations[int(situation)]
-    elif not any(situation is s for s in model.situations):
+        chosen = model.situations[int(situation)]
+    else:
         raise ValueError("situation must be one of model.situations or an index into it")
     width = model.robot_width_m if robot_width_m is None else robot_width_m
-    return path_graph(situation, start_xy, goal_xy, robot_width_m=width, **kw)
+    return path_graph(chosen, start_xy, goal_xy, robot_width_m=width, **kw)
 
 
 def model_routes(
@@ -199,7 +204,7 @@ def path_graph(
         lines = [o.lines if o.lines.shape[0] else o.points.reshape(-1, 2, 2) for o in obstacles]
         counts = [x.shape[0] for x in lines]
         skeletons = shapely.multilinestrings(
-            _lines(np.concatenate(lines)), indices=np.repeat(np.arange(n_obs), counts)
+            safe_linestrings(np.concatenate(lines)), indices=np.repeat(np.arange(n_obs), counts)
         )
         tree = shapely.STRtree(skeletons)
     else:
@@ -219,19 +224,22 @@ def path_graph(
     for k, reg in enumerate(situation.critical_regions):
         poly = np.asarray(reg.polygon)
         specs.append(("region", k, np.asarray(reg.narrowest), reg.p_passable, reg.obstacles, poly))
-        barriers.append(shapely.Polygon(poly) if poly.shape[0] >= 3 else _lines(reg.narrowest)[0])
+        if poly.shape[0] >= 3:
+            barriers.append(shapely.Polygon(poly))
+        else:
+            barriers.append(safe_linestrings(reg.narrowest)[0])
     for k, pas in enumerate(situation.passages):
         specs.append(("passage", k, np.asarray(pas.narrowest), pas.p_passable, pas.obstacles, None))
-        barriers.append(_lines(np.asarray(pas.narrowest))[0])
-    for kind, k, narrow, p, (oi, oj), poly in specs:
+        barriers.append(safe_linestrings(np.asarray(pas.narrowest))[0])
+    for kind, k, narrow, p, (oi, oj), outline in specs:
         a, b = narrow[0], narrow[1]
         d = b - a
         length = float(np.hypot(*d))
         nrm = np.array([-d[1], d[0]]) / length if length > 1e-12 else np.array([1.0, 0.0])
         mid = 0.5 * (a + b)
         plus = minus = r + margin
-        if poly is not None and poly.shape[0]:
-            proj = (poly - mid) @ nrm
+        if outline is not None and outline.shape[0]:
+            proj = (outline - mid) @ nrm
             plus = max(plus, float(proj.max()) + margin)
             minus = max(minus, float(-proj.min()) + margin)
         for side, pos in enumerate((mid + plus * nrm, mid - minus * nrm)):
@@ -306,7 +314,7 @@ def path_graph(
     if pairs.shape[0] == 0:
         return G
     segs = np.stack([P[pairs[:, 0]], P[pairs[:, 1]]], axis=1)
-    lines_ = _lines(segs)
+    lines_ = safe_linestrings(segs)
     blocked = np.zeros(pairs.shape[0], dtype=bool)
     if n_obs:
         hit_line, hit_obs = tree.query(lines_, predicate="dwithin", distance=r)
@@ -537,14 +545,3 @@ def _corner_points(
     origin = np.repeat(ends, 5, axis=1)  # (q, 10, 2): end 0 five times, then end 1
     pts = origin + reach * np.stack([np.cos(ang), np.sin(ang)], axis=-1)
     return pts.reshape(-1, 2), np.repeat(owner, 10)
-
-
-def _lines(coords: FloatArray) -> np.ndarray:
-    """shapely LineStrings of (q, 2, 2) coordinates; zero-length ones nudged to 1 micron."""
-    coords = np.asarray(coords, dtype=np.float64).reshape(-1, 2, 2)
-    d = coords[:, 1] - coords[:, 0]
-    zero = np.hypot(d[:, 0], d[:, 1]) < 1e-9
-    if np.any(zero):
-        coords = coords.copy()
-        coords[zero, 1, 0] += 1e-6
-    return shapely.linestrings(coords)

@@ -1,29 +1,59 @@
-"""Compiled loops of :mod:`modeling.model`: the outline polygons (:func:`finish_hulls`, after GEOS
-has made the convex hulls) and the connected components of small graphs (:func:`components`).
+"""Compiled loop of :mod:`modeling.obstacles`: the outline polygons (:func:`finish_hulls`, after
+GEOS has made the convex hulls); its readable reference is
+:func:`modeling.obstacles.finish_hulls_reference`.
 
-Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not import
-Numba.
+Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not
+import Numba.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from modeling._compiled.jit import compiled_on_first_call
 
 
+class HullSets(NamedTuple):
+    """Point sets and the convex hulls GEOS made of them.
+
+    Attributes:
+        points: (p, 2) float64, the points of all sets, set after set, metres.
+        counts: (n,) int64, points per set.
+        flat: (n,) bool, whether a set is flat already (at most two points, or no polygon from
+            GEOS).
+        grow: (n,) float64, half-thickness of each set's rectangle, metres.
+        poly_set: (q,) int64, the sets whose GEOS hull is a polygon, increasing.
+        coords: (c, 2) float64, their exterior rings, closed (first vertex repeated), one after
+            another.
+        n_coords: (q,) int64, vertices of each ring, closing one included.
+    """
+
+    points: np.ndarray
+    counts: np.ndarray
+    flat: np.ndarray
+    grow: np.ndarray
+    poly_set: np.ndarray
+    coords: np.ndarray
+    n_coords: np.ndarray
+
+
+class Polygons(NamedTuple):
+    """Polygons one after another.
+
+    Attributes:
+        vertices: (v, 2) float64, the polygons (counter-clockwise, not closed), metres.
+        offsets: (n + 1,) int64, where each set's polygon starts in ``vertices``.
+    """
+
+    vertices: np.ndarray
+    offsets: np.ndarray
+
+
 @compiled_on_first_call
-def finish_hulls(
-    points: np.ndarray,
-    counts: np.ndarray,
-    flat: np.ndarray,
-    grow: np.ndarray,
-    poly_set: np.ndarray,
-    coords: np.ndarray,
-    n_coords: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
+def finish_hulls(sets: HullSets) -> Polygons:
     """The polygon of each point set: its GEOS hull, or the rectangle around a flat set.
 
     A hull ring of (almost) no area (``|2 area| <= 1e-9 max(span, 1e-3)``, span the largest
@@ -33,19 +63,14 @@ def finish_hulls(
     coincide), then the smallest and largest projections on that direction.
 
     Args:
-        points: (p, 2) the points of all sets, set after set.
-        counts: (n,) points per set.
-        flat: (n,) whether a set is flat already (at most two points, or no polygon from GEOS);
-            updated in place with the thin hulls.
-        grow: (n,) half-thickness of each set's rectangle, metres.
-        poly_set: (q,) the sets whose GEOS hull is a polygon, increasing.
-        coords: (c, 2) their exterior rings, closed (first vertex repeated), one after another.
-        n_coords: (q,) vertices of each ring, closing one included.
+        sets: The point sets and their GEOS hulls.
 
     Returns:
-        ``(vertices, offsets)``: (v, 2) the polygons (counter-clockwise, not closed) one after
-        another, and (n + 1,) where each set's polygon starts.
+        The polygon of each set.
     """
+    points, counts, grow = sets.points, sets.counts, sets.grow
+    poly_set, coords, n_coords = sets.poly_set, sets.coords, sets.n_coords
+    flat = sets.flat.copy()  # with the thin hulls
     n = counts.shape[0]
     q = poly_set.shape[0]
     # the hull rings: twice the signed area (shoelace) and the span, so thin ones turn flat
@@ -123,34 +148,4 @@ def finish_hulls(
             out[o + 2, 0], out[o + 2, 1] = bx_ + tx + nx, by_ + ty + ny
             out[o + 3, 0], out[o + 3, 1] = ax_ - tx + nx, ay_ - ty + ny
         first += counts[s]
-    return out, offsets
-
-
-@compiled_on_first_call
-def components(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
-    """Connected components of the graph on ``n`` nodes with edges ``(i[k], j[k])``.
-
-    Union-find with path halving: each edge hooks the larger of its two roots onto the smaller
-    (so every parent is smaller than its child, and a root is the smallest node of its tree), then
-    one pass in node order points every node at its root.
-
-    Returns:
-        (n,) int64 label of each node: the smallest node of its component.
-    """
-    parent = np.arange(n)
-    for k in range(i.shape[0]):
-        a = i[k]
-        while parent[a] != a:  # path halving on the way up
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        b = j[k]
-        while parent[b] != b:
-            parent[b] = parent[parent[b]]
-            b = parent[b]
-        if a < b:
-            parent[b] = a
-        elif b < a:
-            parent[a] = b
-    for v in range(n):  # its parent, smaller, points at the root already
-        parent[v] = parent[parent[v]]
-    return parent
+    return Polygons(out, offsets)

@@ -116,7 +116,7 @@ def test_union_find_components_match_scipy(seed: int, n: int, density: float) ->
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    from modeling.model import _components
+    from modeling.obstacles import components as _components
 
     rng = np.random.default_rng(seed)
     m = int(density * n)
@@ -138,7 +138,7 @@ def test_union_find_components_match_scipy(seed: int, n: int, density: float) ->
 def test_k_best_situations_are_the_exact_top_k(weights: list[list[float]], k: int) -> None:
     import itertools
 
-    from modeling.model import _k_best
+    from modeling.situations import k_best as _k_best
 
     probs = [np.sort(np.array(w) / sum(w))[::-1] for w in weights]
     got = _k_best(probs, k)

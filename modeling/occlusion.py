@@ -1,0 +1,209 @@
+"""Occlusion (paper section 4.1): the floor hidden behind the observed segments.
+
+The occluded area is what lies behind the kept segments (and merged candidates) seen from the
+viewpoint, within the field-of-view wedge of radius ``max_range_m``: an angular sweep of rays
+finds the nearest segment along each ray (:func:`nearest_hits`), and each run of consecutive
+blocked rays gives one shadow polygon (:func:`shadow_rings`). It is computed once per model and
+treated as free space by the planners.
+
+Frames: world, metres; angles radians.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Any, NamedTuple
+
+import numpy as np
+import shapely
+
+from modeling.geometry import wrap_angle
+from modeling.observation import FloorObservation
+from modeling.validation import FloatArray
+
+__all__ = [
+    "RaySweep",
+    "RaysAndSegments",
+    "Rings",
+    "nearest_hits",
+    "occluded_area",
+    "polygons_of",
+    "shadow_rings",
+]
+
+
+class RaysAndSegments(NamedTuple):
+    """Rays from one origin and the segments to intersect them with.
+
+    Attributes:
+        u: (B, 2) unit direction of each ray.
+        p: (n, 2) first endpoint of each segment, relative to the rays' origin, metres.
+        e: (n, 2) each segment's second endpoint minus its first, metres.
+        k0: (n,) int64, first ray within each segment's angular span.
+        n_rays: (n,) int64, number of consecutive rays from ``k0`` to intersect with it (0:
+            none).
+    """
+
+    u: np.ndarray
+    p: np.ndarray
+    e: np.ndarray
+    k0: np.ndarray
+    n_rays: np.ndarray
+
+
+class RaySweep(NamedTuple):
+    """The rays of a sweep and their nearest hits.
+
+    Attributes:
+        origin: (2,) the rays' origin, world frame, metres.
+        u: (B, 2) unit direction of each ray, in angular order.
+        hit: (B,) distance to the nearest hit of each ray (``inf``: none), metres.
+        max_range: Range, metres.
+    """
+
+    origin: np.ndarray
+    u: np.ndarray
+    hit: np.ndarray
+    max_range: float
+
+
+class Rings(NamedTuple):
+    """Polygon rings one after another.
+
+    Attributes:
+        vertices: (v, 2) the rings (not closed), metres.
+        sizes: (r,) int64, the vertices of each ring.
+    """
+
+    vertices: np.ndarray
+    sizes: np.ndarray
+
+
+# The empty result of ``occluded_area`` (shapely geometries are immutable: one can be shared, and
+# building it costs more than the rest of a small occlusion sweep).
+_EMPTY_POLYGON = shapely.Polygon()
+
+
+def occluded_area(obs: FloorObservation, ends: FloatArray, n_rays: int = 361) -> Any:
+    """The area behind segments ``ends`` (n, 2, 2) seen from the viewpoint, within FOV and range.
+
+    An angular sweep: ``n_rays`` rays across the field of view find the nearest segment (mean
+    geometry); each run of consecutive rays that hit something within ``max_range_m`` gives one
+    occluded polygon, from the hit points out to the range (angular resolution
+    ``fov / (n_rays - 1)``, 0.18 deg by default). Only the rays within a segment's angular span
+    are intersected with it.
+
+    Args:
+        obs: The observation (its viewpoint, field of view and range).
+        ends: (n, 2, 2) the occluding segments' endpoint means, world frame, metres.
+        n_rays: Number of rays across the field of view.
+
+    Returns:
+        A shapely (Multi)Polygon, possibly empty; world frame, metres.
+    """
+    vp = np.asarray(obs.viewpoint[:2], dtype=np.float64)
+    R = float(obs.max_range_m)
+    half = 0.5 * float(obs.fov_rad)
+    if ends.shape[0] == 0:
+        return _EMPTY_POLYGON
+    heading = float(obs.viewpoint[2])
+    step = 2.0 * half / (n_rays - 1)
+    ang = heading + _ray_offsets(half, n_rays)
+    u = np.stack([np.cos(ang), np.sin(ang)], axis=1)  # (B, 2)
+    p = ends[:, 0] - vp
+    e = ends[:, 1] - ends[:, 0]
+    # Angular span of each segment relative to the heading (the arc it subtends, < pi).
+    a0 = wrap_angle(np.arctan2(p[:, 1], p[:, 0]) - heading)
+    a1 = wrap_angle(np.arctan2(p[:, 1] + e[:, 1], p[:, 0] + e[:, 0]) - heading)
+    lo, hi = np.minimum(a0, a1), np.maximum(a0, a1)
+    ok = hi - lo < np.pi  # a segment whose shorter arc passes behind the viewpoint: not in FOV
+    k0 = np.clip(np.ceil((lo + half) / step - 1e-9), 0, n_rays).astype(np.int64)
+    k1 = np.clip(np.floor((hi + half) / step + 1e-9), -1, n_rays - 1).astype(np.int64)
+    cnt = np.where(ok, np.maximum(k1 - k0 + 1, 0), 0)
+    if not cnt.any():
+        return _EMPTY_POLYGON
+    hit = nearest_hits(RaysAndSegments(u=u, p=p, e=e, k0=k0, n_rays=cnt))
+    # Runs of consecutive blocked rays -> polygons (the wedge minus the star polygon of the ray
+    # hits), all rings in one vectorised call (shapely closes each ring, as Polygon(shell) does).
+    rings = shadow_rings(RaySweep(origin=vp, u=u, hit=hit, max_range=R))
+    n_rings = rings.sizes.shape[0]
+    if n_rings == 0:
+        return _EMPTY_POLYGON
+    polys = shapely.polygons(
+        shapely.linearrings(rings.vertices, indices=np.repeat(np.arange(n_rings), rings.sizes))
+    )
+    return polys[0] if n_rings == 1 else shapely.multipolygons(polys)
+
+
+def nearest_hits(rays: RaysAndSegments) -> FloatArray:
+    """Distance along each ray to the nearest segment it crosses (``inf``: none; section 4.1,
+    occlusion).
+
+    Ray ``k`` (direction ``u_k``) meets segment ``p + s e`` at ``r u_k = p + s e``; the hit
+    counts when ``s`` is in [0, 1] (1e-9 slack) and ``r > 1e-9``, rays parallel to the segment
+    (``|u_k x e| <= 1e-15``) excepted. Only the rays ``k0 .. k0 + n_rays - 1`` of each segment
+    are tried.
+
+    Returns:
+        (B,) the smallest such ``r`` of each ray.
+    """
+    count = rays.n_rays
+    seg = np.repeat(np.arange(rays.p.shape[0]), count)  # (segment, ray) pairs to try
+    ray = rays.k0[seg] + np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+    ux, uy = rays.u[ray, 0], rays.u[ray, 1]
+    px, py, ex, ey = rays.p[seg, 0], rays.p[seg, 1], rays.e[seg, 0], rays.e[seg, 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        denom = ux * ey - uy * ex
+        r = (px * ey - py * ex) / denom
+        s = (px * uy - py * ux) / denom
+    hit = (np.abs(denom) > 1e-15) & (s >= -1e-9) & (s <= 1.0 + 1e-9) & (r > 1e-9)
+    out = np.full(rays.u.shape[0], np.inf)
+    np.minimum.at(out, ray[hit], r[hit])
+    return out
+
+
+def shadow_rings(sweep: RaySweep) -> Rings:
+    """The occluded polygons of a ray sweep (section 4.1, occlusion).
+
+    A ray is blocked when its hit is nearer than ``max_range``. Each run of consecutive blocked
+    rays gives one ring: the hit points of its rays, then back along the range arc, which reaches
+    one ray beyond each end of the run (the shadow's edge lies between a blocked and a free ray).
+    """
+    u, hit, n = sweep.u, sweep.hit, sweep.hit.shape[0]
+    blocked = hit < sweep.max_range
+    edges = np.diff(np.concatenate(([0], blocked.astype(np.int8), [0])))
+    run_lo = np.flatnonzero(edges == 1)
+    run_hi = np.flatnonzero(edges == -1)  # exclusive
+    far = sweep.origin + sweep.max_range * u
+    rings = [
+        np.vstack(
+            [sweep.origin + hit[s0:s1, None] * u[s0:s1], far[max(s0 - 1, 0) : min(s1 + 1, n)][::-1]]
+        )
+        for s0, s1 in zip(run_lo.tolist(), run_hi.tolist(), strict=True)
+    ]
+    sizes = np.array([r.shape[0] for r in rings], dtype=np.int64)
+    vertices = np.concatenate(rings) if rings else np.zeros((0, 2))
+    return Rings(vertices=vertices, sizes=sizes)
+
+
+@functools.lru_cache(maxsize=16)
+def _ray_offsets(half: float, n_rays: int) -> FloatArray:
+    """(n_rays,) ray angles relative to the heading, read-only (cached: the field of view of a
+    camera does not change between observations)."""
+    out = np.linspace(-half, half, n_rays)
+    out.setflags(write=False)
+    return out
+
+
+def polygons_of(geom: Any) -> tuple[FloatArray, ...]:
+    """Exterior rings (m, 2), not closed, of the polygons of ``geom`` with an area."""
+    if geom is None or shapely.is_empty(geom):
+        return ()
+    parts = getattr(geom, "geoms", [geom])
+    out = []
+    for g in parts:
+        if g.geom_type == "Polygon" and not g.is_empty and g.area > 1e-9:
+            ring = np.asarray(g.exterior.coords, dtype=np.float64)[:-1]
+            ring.setflags(write=False)
+            out.append(ring)
+    return tuple(out)
