@@ -22,6 +22,11 @@ _EXPORTS: dict[str, str] = {
     "ImageSegments": "modeling.segments",
     "extract_segments": "modeling.segments",
     "extract_segment_pair": "modeling.segments",
+    "SegmentOptions": "modeling.segments",
+    "MatchOptions": "modeling.matching",
+    "TriangulationOptions": "modeling.triangulation",
+    "FaceOptions": "modeling.faces",
+    "ModelOptions": "modeling.model",
     "StereoMatches": "modeling.matching",
     "match_segments": "modeling.matching",
     "triangulate_to_floor": "modeling.triangulation",
@@ -42,16 +47,21 @@ __all__ = [
     "AmbiguousSegment",
     "CriticalRegion",
     "EnvironmentModel",
+    "FaceOptions",
     "FloorObservation",
     "FloorSegment",
     "HeadPose",
     "ImageSegments",
+    "MatchOptions",
+    "ModelOptions",
     "Obstacle",
     "Passage",
     "Relation",
+    "SegmentOptions",
     "Situation",
     "StereoMatches",
     "StereoRig",
+    "TriangulationOptions",
     "build_model",
     "classify_gap",
     "close_faces",
@@ -64,16 +74,21 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
-    from modeling.faces import close_faces
+    from modeling.faces import FaceOptions, close_faces
     from modeling.gaps import Relation, classify_gap, gap_passable_probability
-    from modeling.matching import StereoMatches, match_segments
-    from modeling.model import build_model
+    from modeling.matching import MatchOptions, StereoMatches, match_segments
+    from modeling.model import ModelOptions, build_model
     from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
     from modeling.pipeline import model_from_stereo
     from modeling.records import CriticalRegion, EnvironmentModel, Obstacle, Passage, Situation
     from modeling.rig import HeadPose, StereoRig
-    from modeling.segments import ImageSegments, extract_segment_pair, extract_segments
-    from modeling.triangulation import triangulate_to_floor
+    from modeling.segments import (
+        ImageSegments,
+        SegmentOptions,
+        extract_segment_pair,
+        extract_segments,
+    )
+    from modeling.triangulation import TriangulationOptions, triangulate_to_floor
 
 
 def __getattr__(name: str) -> Any:

@@ -60,7 +60,7 @@ from numpy.typing import NDArray
 from modeling._compiled.match import Candidates, Decision, PeakRule, decide
 from modeling.disparity_histograms import Splat, histogram_inputs, region_histograms
 from modeling.rig import StereoRig
-from modeling.segments import ImageSegments, _list_options_in_signature
+from modeling.segments import ImageSegments
 from modeling.validation import FloatArray, positive, with_overrides
 
 __all__ = [
@@ -521,7 +521,3 @@ def _stereo_matches(
         peak_height=kept.peak_height,
         opposite_polarity=cand.opposite[sel],
     )
-
-
-_list_options_in_signature(match_segments, MatchOptions)
-_list_options_in_signature(match_candidates, MatchOptions)

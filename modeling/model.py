@@ -19,6 +19,9 @@ covariances m^2; probabilities in [0, 1].
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 
 from modeling.ambiguity import (
@@ -33,11 +36,12 @@ from modeling.observation import FloorObservation
 from modeling.occlusion import occluded_area, polygons_of
 from modeling.records import CriticalRegion, EnvironmentModel, Obstacle, Passage, Situation
 from modeling.situations import enumerate_situations
-from modeling.validation import positive
+from modeling.validation import integer, positive, with_overrides
 
 __all__ = [
     "CriticalRegion",
     "EnvironmentModel",
+    "ModelOptions",
     "Obstacle",
     "Passage",
     "Situation",
@@ -45,26 +49,45 @@ __all__ = [
 ]
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ModelOptions:
+    """The options of :func:`build_model`.
+
+    Attributes:
+        eps: Classification tolerance in (0, 0.5): passable if ``p > 1 - eps``, impassable if
+            ``p < eps``, undecided otherwise.
+        max_situations: At most this many situations are returned, most probable first (>= 1).
+        min_isolated_length_m: Isolated segments shorter than this are dropped (metres, >= 0).
+        outline_buffer_m: Half-width of the rectangle that stands for the polygon of an obstacle
+            whose points are collinear (one segment, or a straight wall), metres (> 0).
+    """
+
+    eps: float = 0.05
+    max_situations: int = 64
+    min_isolated_length_m: float = 0.1
+    outline_buffer_m: float = 0.02
+
+    def __post_init__(self) -> None:
+        _check_eps(self.eps)
+        integer(self.max_situations, "max_situations", low=1)
+        positive(self.min_isolated_length_m, "min_isolated_length_m", allow_zero=True)
+        positive(self.outline_buffer_m, "outline_buffer_m")
+
+
 def build_model(
     observation: FloorObservation,
     robot_width_m: float,
-    *,
-    eps: float = 0.05,
-    max_situations: int = 64,
-    min_isolated_length_m: float = 0.1,
-    outline_buffer_m: float = 0.02,
+    options: ModelOptions | None = None,
+    **overrides: Any,
 ) -> EnvironmentModel:
     """Model obstacles, free spaces and possible situations from a floor observation.
 
     Args:
         observation: The floor segments (unambiguous and ambiguous), world frame.
         robot_width_m: Robot width (diameter), metres, > 0.
-        eps: Classification tolerance in (0, 0.5): passable if ``p > 1 - eps``, impassable if
-            ``p < eps``, undecided otherwise.
-        max_situations: At most this many situations are returned, most probable first.
-        min_isolated_length_m: Isolated segments shorter than this are dropped (metres, >= 0).
-        outline_buffer_m: Half-width of the rectangle that stands for the polygon of an obstacle
-            whose points are collinear (one segment, or a straight wall), metres (> 0).
+        options: The :class:`ModelOptions` (default: their defaults).
+        **overrides: Fields of :class:`ModelOptions` to replace (``eps=0.1``,
+            ``max_situations=8``, ...).
 
     Returns:
         The :class:`~modeling.records.EnvironmentModel` (see the module docstring for the steps).
@@ -77,13 +100,10 @@ def build_model(
             f"observation must be a FloorObservation, got {type(observation).__name__}"
         )
     width = positive(robot_width_m, "robot_width_m")
-    eps = _check_eps(eps)
-    if isinstance(max_situations, bool) or not isinstance(max_situations, int | np.integer):
-        raise ValueError(f"max_situations must be an integer >= 1, got {max_situations!r}")
-    if max_situations < 1:
-        raise ValueError(f"max_situations must be an integer >= 1, got {max_situations!r}")
-    min_len = positive(min_isolated_length_m, "min_isolated_length_m", allow_zero=True)
-    buffer_m = positive(outline_buffer_m, "outline_buffer_m")
+    opts = with_overrides(options, ModelOptions, overrides)
+    eps = _check_eps(opts.eps)
+    min_len = positive(opts.min_isolated_length_m, "min_isolated_length_m", allow_zero=True)
+    buffer_m = positive(opts.outline_buffer_m, "outline_buffer_m")
 
     # Section 4.1: items, their relations, isolated short segments.
     items = items_of(observation)
@@ -104,7 +124,7 @@ def build_model(
         rel,
         units,
         elimination,
-        max_situations=int(max_situations),
+        max_situations=int(opts.max_situations),
         robot_width_m=width,
         outline_buffer_m=buffer_m,
     )

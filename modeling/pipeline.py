@@ -9,36 +9,57 @@
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from modeling.faces import FaceOptions
 from modeling.faces import close_faces as close_faces_of
-from modeling.matching import match_segments
+from modeling.matching import MatchOptions, match_segments
 from modeling.observation import FloorObservation
 from modeling.rig import HeadPose, StereoRig
-from modeling.segments import extract_segment_pair, extract_segments
+from modeling.segments import SegmentOptions, extract_segment_pair
 from modeling.triangulation import TriangulationOptions, triangulate_to_floor
-from modeling.validation import keyword_options, positive
+from modeling.validation import positive, with_overrides
 
 if TYPE_CHECKING:  # pragma: no cover
     from modeling.model import EnvironmentModel
 
-__all__ = ["model_from_stereo", "stereo_to_floor", "to_gray"]
+__all__ = ["STEREO_STAGES", "model_from_stereo", "route_options", "stereo_to_floor", "to_gray"]
 
 
-def _keyword_options(fn: Callable[..., Any]) -> frozenset[str]:
-    """The names of ``fn``'s keyword-only parameters (its options)."""
-    return frozenset(keyword_options(fn))
+# Each stage's options dataclass, by stage name. A flat keyword goes to every stage that has a
+# field of its name (``max_height_m`` bounds both the triangulation's band and the faces' tops).
+STEREO_STAGES: dict[str, type[Any]] = {
+    "segments": SegmentOptions,
+    "matching": MatchOptions,
+    "triangulation": TriangulationOptions,
+    "faces": FaceOptions,
+}
 
 
-# The options of each stage, read from its signature (the one place they are listed).
-_EXTRACT_KEYS = _keyword_options(extract_segments)
-_MATCH_KEYS = _keyword_options(match_segments)
-_TRIANGULATE_KEYS = frozenset(f.name for f in dataclasses.fields(TriangulationOptions))
+def _fields(cls: type[Any]) -> frozenset[str]:
+    return frozenset(f.name for f in dataclasses.fields(cls))
+
+
+def route_options(kw: Mapping[str, Any], stages: Mapping[str, type[Any]]) -> dict[str, Any]:
+    """One options instance per stage from flat keywords (each key to every stage naming it).
+
+    Raises:
+        ValueError: A key no stage has (every unknown key named, with the known ones), or a bad
+            value (the dataclass names it).
+    """
+    known = frozenset().union(*(_fields(cls) for cls in stages.values()))
+    unknown = sorted(set(kw) - known)
+    if unknown:
+        raise ValueError(f"unknown option(s) {unknown}; known: {sorted(known)}")
+    return {
+        name: with_overrides(None, cls, {k: v for k, v in kw.items() if k in _fields(cls)})
+        for name, cls in stages.items()
+    }
 
 
 def to_gray(image: NDArray[np.uint8], name: str = "image") -> NDArray[np.uint8]:
@@ -56,23 +77,6 @@ def to_gray(image: NDArray[np.uint8], name: str = "image") -> NDArray[np.uint8]:
     if image.ndim == 3 and image.shape[2] == 3:
         return np.asarray(cv2.cvtColor(np.ascontiguousarray(image), cv2.COLOR_RGB2GRAY), np.uint8)
     raise ValueError(f"{name} must have shape (H, W) or (H, W, 3), got {image.shape}")
-
-
-def split_stereo_kwargs(
-    kw: dict[str, Any],
-) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
-    """Split keyword options into those of extraction, matching and triangulation.
-
-    Raises:
-        ValueError: for an unknown key.
-    """
-    unknown = sorted(set(kw) - _EXTRACT_KEYS - _MATCH_KEYS - _TRIANGULATE_KEYS)
-    if unknown:
-        raise ValueError(f"unknown stereo option(s) {unknown}")
-    ext = {k: v for k, v in kw.items() if k in _EXTRACT_KEYS}
-    mat = {k: v for k, v in kw.items() if k in _MATCH_KEYS}
-    tri = {k: v for k, v in kw.items() if k in _TRIANGULATE_KEYS}
-    return ext, mat, tri
 
 
 def stereo_to_floor(
@@ -96,8 +100,9 @@ def stereo_to_floor(
             as the env does by default); ``False``: the paper's pipeline alone.
         on_stage: Called with ``"segments"``, ``"matching"`` and ``"triangulation"`` (faces
             included) as each stage ends, e.g. to time them.
-        **kw: Options of ``extract_segments`` (e.g. ``sigma_px``), ``match_segments`` (e.g.
-            ``rel_peak``) and ``triangulate_to_floor`` (``min_height_m``, ``max_height_m``).
+        **kw: Fields of the stage options (:data:`STEREO_STAGES`): ``SegmentOptions`` (e.g.
+            ``sigma_px``), ``MatchOptions`` (e.g. ``rel_peak``), ``TriangulationOptions``
+            (``min_height_m``, ``max_height_m``) and ``FaceOptions``.
 
     Returns:
         The ``FloorObservation``.
@@ -115,17 +120,17 @@ def stereo_to_floor(
         raise ValueError(f"left must be {want[0]}x{want[1]} pixels (the rig's), got {gl.shape}")
     if gr.shape != want:
         raise ValueError(f"right must be {want[0]}x{want[1]} pixels (the rig's), got {gr.shape}")
-    ext, mat, tri = split_stereo_kwargs(kw)
+    opts = route_options(kw, STEREO_STAGES)
     if not isinstance(close_faces, bool):
         raise ValueError(f"close_faces must be a bool, got {close_faces!r}")
     stage_done = on_stage if on_stage is not None else _no_op
-    segs_l, segs_r = extract_segment_pair(gl, gr, **ext)
+    segs_l, segs_r = extract_segment_pair(gl, gr, opts["segments"])
     stage_done("segments")
-    matches = match_segments(segs_l, segs_r, rig, **mat)
+    matches = match_segments(segs_l, segs_r, rig, opts["matching"])
     stage_done("matching")
-    floor = triangulate_to_floor(matches, rig, head_pose, **tri)
+    floor = triangulate_to_floor(matches, rig, head_pose, opts["triangulation"])
     if close_faces:
-        floor = close_faces_of(segs_l, floor, max_height_m=tri.get("max_height_m", 1.0))
+        floor = close_faces_of(segs_l, floor, opts["faces"])
     stage_done("triangulation")
     return floor
 
@@ -137,13 +142,6 @@ def _no_op(_: str) -> None:
 # ---------------------------------------------------------------------------------------------
 # model_from_stereo: stereo_to_floor(...) -> build_model(...)
 # ---------------------------------------------------------------------------------------------
-def _model_keys() -> frozenset[str]:
-    """The keyword-only options of :func:`~modeling.model.build_model`."""
-    from modeling.model import build_model
-
-    return _keyword_options(build_model)
-
-
 def model_from_stereo(
     left_rgb: NDArray[np.uint8],
     right_rgb: NDArray[np.uint8],
@@ -162,9 +160,9 @@ def model_from_stereo(
         head_pose: Pose of the left optical centre, world frame.
         robot_width_m: Robot width (diameter), metres, > 0.
         **kw: Options of the stereo stages (those of :func:`stereo_to_floor`, e.g. ``sigma_px``,
-            ``rel_peak``, ``min_height_m``, ``close_faces``) and of ``build_model`` (``eps``,
-            ``max_situations``, ``min_isolated_length_m``, ``outline_buffer_m``), each passed to
-            its own stage.
+            ``rel_peak``, ``min_height_m``, ``close_faces``) and fields of
+            :class:`~modeling.model.ModelOptions` (``eps``, ``max_situations``,
+            ``min_isolated_length_m``, ``outline_buffer_m``), each passed to its own stage.
 
     Returns:
         The :class:`~modeling.model.EnvironmentModel` (world frame, metres).
@@ -173,18 +171,19 @@ def model_from_stereo(
         ValueError: an unknown option (all of them are named), or any bad input of the stages
             (naming it).
     """
+    from modeling.model import ModelOptions, build_model  # the stereo stages do not need it
+
     positive(robot_width_m, "robot_width_m")  # fail before the stereo work
-    model_keys = _model_keys()
-    stereo_keys = _EXTRACT_KEYS | _MATCH_KEYS | _TRIANGULATE_KEYS | {"close_faces"}
-    unknown = sorted(set(kw) - model_keys - stereo_keys)
+    model_keys = _fields(ModelOptions)
+    known = model_keys.union({"close_faces"}, *(_fields(c) for c in STEREO_STAGES.values()))
+    unknown = sorted(set(kw) - known)
     if unknown:
         raise ValueError(
-            f"unknown option(s) {unknown} of model_from_stereo; stereo options are "
-            f"{sorted(stereo_keys)}, model options are {sorted(model_keys)}"
+            f"unknown option(s) {unknown} of model_from_stereo; known: {sorted(known)}"
         )
-    model_kw = {k: v for k, v in kw.items() if k in model_keys}
-    stereo_kw = {k: v for k, v in kw.items() if k in stereo_keys}
-    from modeling.model import build_model  # the stereo stages alone do not need it
-
+    model_options = with_overrides(
+        None, ModelOptions, {k: v for k, v in kw.items() if k in model_keys}
+    )
+    stereo_kw = {k: v for k, v in kw.items() if k not in model_keys}
     observation = stereo_to_floor(left_rgb, right_rgb, rig, head_pose, **stereo_kw)
-    return build_model(observation, robot_width_m, **model_kw)
+    return build_model(observation, robot_width_m, model_options)

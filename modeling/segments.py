@@ -45,11 +45,8 @@ Image frame: pixels, u right, v down, (0, 0) the centre of the top-left pixel.
 
 from __future__ import annotations
 
-import dataclasses
-import inspect
 import math
 import threading
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -368,25 +365,6 @@ def extract_segment_pair(
     lines_r = job.result()
     segs_l, segs_r = _fit([img_l, img_r], [lines_l, lines_r], opts)
     return segs_l, segs_r
-
-
-def _list_options_in_signature(fn: Callable[..., Any], cls: type[Any]) -> None:
-    """Give ``fn`` the signature it has with the fields of the options dataclass ``cls`` (and
-    their defaults) as keyword-only parameters in place of ``**overrides``: the flat keywords it
-    accepts, as :func:`modeling.validation.keyword_options` reads them (``modeling.pipeline``
-    routes the flat keywords of its callers by them) and as ``help(fn)`` shows them."""
-    sig = inspect.signature(fn)
-    params = [p for p in sig.parameters.values() if p.kind is not p.VAR_KEYWORD]
-    defaults = cls()
-    params += [
-        inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=getattr(defaults, f.name))
-        for f in dataclasses.fields(cls)
-    ]
-    fn.__dict__["__signature__"] = sig.replace(parameters=params)
-
-
-_list_options_in_signature(extract_segments, SegmentOptions)
-_list_options_in_signature(extract_segment_pair, SegmentOptions)
 
 
 # ------------------------------------------------------------------ detection and fitting

@@ -10,10 +10,9 @@ writes its own.
 from __future__ import annotations
 
 import dataclasses
-import inspect
 import math
 import typing
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from typing import Any, TypeVar
 
 import numpy as np
@@ -211,9 +210,3 @@ def from_flat(cls: type[T], kwargs: Mapping[str, Any], *, what: str | None = Non
             raise ValueError(f"{key} must be a {sub.__name__} or a dict, got {got}")
         top[key] = from_flat(sub, {**base, **parts[key]}, what=f"{label}.{key}")
     return cls(**top)
-
-
-def keyword_options(fn: Callable[..., Any]) -> dict[str, Any]:
-    """``fn``'s keyword-only parameters (a stage's options) with their defaults, in order."""
-    params = inspect.signature(fn).parameters.values()
-    return {p.name: p.default for p in params if p.kind is inspect.Parameter.KEYWORD_ONLY}

@@ -4,7 +4,6 @@ the photometric and uniqueness constraints, degenerate input."""
 from __future__ import annotations
 
 import dataclasses
-import inspect
 
 import numpy as np
 import pytest
@@ -303,13 +302,3 @@ def test_options_as_a_dataclass_or_flat_keywords() -> None:
     assert opts.region_sigma_px == (10.0, 20.0)
     with pytest.raises(dataclasses.FrozenInstanceError):
         opts.rel_peak = 0.1  # type: ignore[misc]
-
-
-def test_signatures_list_the_option_fields() -> None:
-    # modeling.pipeline routes flat keywords to the stage whose signature lists them
-    fields = [f.name for f in dataclasses.fields(MatchOptions)]
-    for fn in (match_segments, match_candidates):
-        params = inspect.signature(fn).parameters
-        kw_only = [n for n, p in params.items() if p.kind is inspect.Parameter.KEYWORD_ONLY]
-        assert kw_only == fields
-        assert params["rel_peak"].default == MatchOptions().rel_peak

@@ -4,12 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from tests.modeling.synth import render_pair
 
 from modeling import model_from_stereo as exported
+from modeling.faces import FaceOptions
+from modeling.matching import MatchOptions
 from modeling.model import build_model
-from modeling.pipeline import model_from_stereo, stereo_to_floor
+from modeling.pipeline import STEREO_STAGES, model_from_stereo, route_options, stereo_to_floor
 from modeling.rig import HeadPose, StereoRig
+from modeling.segments import SegmentOptions
+from modeling.triangulation import TriangulationOptions
+from tests.modeling.synth import render_pair
 
 RIG = StereoRig()
 POSE = HeadPose(x_m=0.0, y_m=0.0, heading_rad=0.0, height_m=0.8)  # looking along world +x
@@ -60,7 +64,7 @@ def test_options_reach_their_stage() -> None:
 
 
 def test_every_stage_option_is_accepted_and_reaches_its_stage() -> None:
-    # Each stage's keyword options are routed (the lists are read from the signatures), so the
+    # Each stage's keyword options are routed by the fields of its options dataclass, so the
     # newer ones are not refused as unknown: a bad value fails in its own stage, naming it.
     left, right = bars(1.2)
     floor = stereo_to_floor(left, right, RIG, POSE, near_px=1.0, max_near_grey_diff=12.0)
@@ -81,3 +85,14 @@ def test_unknown_and_bad_options_are_value_errors_naming_them() -> None:
         model_from_stereo(left, right, RIG, POSE, W, eps=0.7)
     with pytest.raises(ValueError, match="left"):
         model_from_stereo(left[:, :, 0].astype(np.float32), right, RIG, POSE, W)
+
+
+def test_flat_options_are_routed_by_the_fields_of_each_stage_dataclass() -> None:
+    opts = route_options({"max_height_m": 0.9, "rel_peak": 0.4, "sigma_px": 1.5}, STEREO_STAGES)
+    assert opts["triangulation"] == TriangulationOptions(max_height_m=0.9)
+    assert opts["faces"] == FaceOptions(max_height_m=0.9)  # the tops bound follows the band
+    assert opts["matching"] == MatchOptions(rel_peak=0.4)
+    assert opts["segments"] == SegmentOptions(sigma_px=1.5)
+    assert route_options({}, STEREO_STAGES)["matching"] == MatchOptions()
+    with pytest.raises(ValueError, match=r"unknown option\(s\) \['rel_peek'\]; known: \["):
+        route_options({"rel_peek": 0.4}, STEREO_STAGES)

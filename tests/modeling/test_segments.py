@@ -4,7 +4,6 @@ levels, OpenCV's LSD output layouts, degenerate input."""
 from __future__ import annotations
 
 import dataclasses
-import inspect
 
 import cv2
 import numpy as np
@@ -341,13 +340,3 @@ def test_options_as_a_dataclass_or_flat_keywords() -> None:
         SegmentOptions(near_px=5.0)
     with pytest.raises(dataclasses.FrozenInstanceError):
         SegmentOptions().sigma_px = 1.0  # type: ignore[misc]
-
-
-def test_signatures_list_the_option_fields() -> None:
-    # modeling.pipeline routes flat keywords to the stage whose signature lists them
-    fields = [f.name for f in dataclasses.fields(SegmentOptions)]
-    for fn in (extract_segments, segments_module.extract_segment_pair):
-        params = inspect.signature(fn).parameters
-        kw_only = [n for n, p in params.items() if p.kind is inspect.Parameter.KEYWORD_ONLY]
-        assert kw_only == fields
-        assert params["near_px"].default == SegmentOptions().near_px
