@@ -50,10 +50,25 @@ def machine_description() -> str:
 
 
 def docstring_markdown(doc: str | None) -> str:
-    """A module docstring, less its first line, as Markdown (reST roles and ``x`` to `x`)."""
-    body = (doc or "").split("\n", 1)[1] if "\n" in (doc or "") else ""
-    body = re.sub(r":\w+:`~?([^`]+)`", r"`\1`", body)
-    return body.replace("``", "`").strip() + "\n"
+    """A module docstring, less its first line, as Markdown.
+
+    Indented lines (command lines) become fenced code blocks; reST roles and ````x```` become
+    ```x```.
+    """
+    out: list[str] = []
+    code = False
+    for line in (doc or "").splitlines()[1:]:
+        indented = line.startswith("    ") and line.strip() != ""
+        if indented != code:
+            out.append("```bash" if indented else "```")
+            code = indented
+        if indented:
+            out.append(line[4:])
+        else:
+            out.append(re.sub(r":\w+:`~?([^`]+)`", r"`\1`", line).replace("``", "`"))
+    if code:
+        out.append("```")
+    return "\n".join(out).strip() + "\n"
 
 
 def format_value(value: float) -> str:

@@ -2,9 +2,9 @@
 
     python scripts/bench_stereo.py [--json FILE] [--n-scenes N] [--seed S] [--noise SIGMA] [--quick]
 
-Prints the figures of :mod:`stereo_nav_env.stereo_eval` (their definitions are in its docstring):
-20 seeded scenes of every family by default, stage times the median of 5 runs per view
-(``--quick``: at most 4 scenes, once).
+Prints the figures that :mod:`stereo_nav_env.stereo_eval` defines, measured on 20 seeded scenes
+of every family by default, the stage times the median of 5 runs per view (``--quick``: at most
+4 scenes, timed once).
 """
 
 from __future__ import annotations
