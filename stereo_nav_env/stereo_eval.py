@@ -587,4 +587,3 @@ def summarise(results: Sequence[ViewResult]) -> dict[str, float]:
         "stereo_nees_endpoints_count": float(nees.size),
         "stereo_nees_mean": _stat(np.mean, nees),
     }
-
