@@ -82,6 +82,21 @@ def test_no_private_imports_across_packages(folder: str) -> None:
     assert {k: v for k, v in bad.items() if v} == {}
 
 
+def test_private_import_check_names_what_it_finds(tmp_path: pathlib.Path) -> None:
+    path = tmp_path / "module.py"
+    path.write_text(
+        "import modeling._compiled.jit\n"
+        "from modeling.model import _helper, build_model\n"
+        "from modeling import __version__, build_model\n"
+        "from stereo_nav_env._x import y\n"
+        "from ._local import z\n"
+    )
+    assert _private_imports(path, own="stereo_nav_env") == [
+        "modeling._compiled.jit",
+        "modeling.model: _helper, build_model",
+    ]
+
+
 @pytest.mark.parametrize("package", sorted(FORBIDDEN))
 def test_package_imports_only_lower_layers(package: str) -> None:
     bad = {
