@@ -1,4 +1,5 @@
 # stereo-nav: `make demo` and `make test` each set up .venv from nothing, then run.
+# `make test` runs the whole suite, then the lint and type checks (`make lint`); CI runs it.
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
@@ -24,17 +25,22 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(PY) -m pytest -q -n 2 tests
+	$(MAKE) --no-print-directory lint
 
 lint: $(STAMP)
 	$(PY) -m ruff check .
 	$(PY) -m ruff format --check .
+	$(PY) -m mypy
 
 format: $(STAMP)
 	$(PY) -m ruff format .
 	$(PY) -m ruff check --fix .
 
+# Writes out/benchmark.json, docs/benchmarks.md (method and every figure), docs/benchmark_summary.md
+# (the short table) and pastes that table into README.md.
 benchmark: $(STAMP)
-	$(PY) scripts/benchmark.py --json out/benchmark.json
+	$(PY) scripts/benchmark.py --json out/benchmark.json --report docs/benchmarks.md \
+		--summary docs/benchmark_summary.md --readme README.md
 
 clean:
-	rm -rf $(VENV) out .pytest_cache .ruff_cache
+	rm -rf $(VENV) out .pytest_cache .ruff_cache .mypy_cache

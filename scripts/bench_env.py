@@ -1,6 +1,6 @@
 """Environment benchmark: one ``StereoNav-v0`` step against rendering the stereo pair alone.
 
-    python scripts/bench_env.py [--steps N] [--rounds R] [--json FILE] [--quick]
+    python scripts/bench_env.py [--steps N] [--rounds R] [--json FILE] [--quick] [--baseline DIR]
 
 The default configuration (320x240, the ``default`` scene, pixel noise 2 grey levels) runs a fixed
 scripted drive (forward with a slow weave, the head panning side to side; reset on termination).
@@ -15,32 +15,44 @@ over their total time: slow outliers, such as views with many situations or the 
 jobs, weigh in), ``env_steps_per_s_at_median`` (1000 / ``env_step_ms``), ``env_render_pair_ms``
 (the pair alone, same poses), ``env_step_over_render_ratio`` (step / pair, per round, then the
 median), ``env_reset_ms`` (a reset of the fixed map, its OpenGL context and distance field made
-already), and ``env_stage_<stage>_ms`` for each stage the env times
-(``physics``, ``noise`` (the grey images plus their noise), ``render`` (the pair; the pixel noise
-is drawn meanwhile in the worker thread), ``segments`` (both images), ``matching``,
-``triangulation``, ``modeling``
-(``build_model``), ``packing``, ``rewards``, ``diagnostics``).
+already), and ``env_stage_<stage>_ms`` for each stage the env times in ``last_timings_ms``
+(physics, noise, render, segments, matching, triangulation, modeling, packing, rewards,
+diagnostics).
+
+``--baseline DIR`` compares this checkout's env with another checkout's (DIR, e.g. the code
+before a change) in one run: the rounds alternate between the two trees (this, DIR, DIR, this,
+this, DIR, ...), each round in a fresh subprocess with its tree first on ``sys.path``, the same
+drive and seed for both. It prints each figure for both trees and their ratio (this / DIR); the
+JSON has ``<figure>``, ``baseline_<figure>`` and ``<figure>_vs_baseline_ratio``.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import pathlib
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
+from typing import TYPE_CHECKING, cast
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 import gymnasium as gym
 import numpy as np
 from _figures import print_figures, write_figures
 
 import stereo_nav_env  # noqa: F401  (registers the ids)
-from stereo_nav_env.env import STAGES
+
+if TYPE_CHECKING:
+    from stereo_nav_env.env import StereoNavEnv
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+"""The checkout this script belongs to."""
 
 BLOCK = 20
 
@@ -53,13 +65,14 @@ def scripted_action(i: int) -> np.ndarray:
     )
 
 
-def _round(steps: int, seed: int) -> dict[str, float]:
+def one_round(steps: int, seed: int) -> dict[str, float]:
+    """The figures of one round of ``steps`` timed steps of the drive, reset with ``seed``."""
     env = gym.make("StereoNav-v0")
-    base = env.unwrapped
+    base = cast("StereoNavEnv", env.unwrapped)
     step_ms: list[float] = []
     render_ms: list[float] = []
     reset_ms: list[float] = []
-    stages: dict[str, list[float]] = {name: [] for name in STAGES}
+    timings: list[dict[str, float]] = []  # the env's stage timings of each step
     try:
         env.reset(seed=seed)  # the first reset also makes the OpenGL context: not timed
         for i in range(5):  # warm up (first-call costs, the passive checker)
@@ -71,8 +84,7 @@ def _round(steps: int, seed: int) -> dict[str, float]:
                 t0 = time.perf_counter()
                 _, _, terminated, truncated, _ = env.step(scripted_action(i))
                 step_ms.append((time.perf_counter() - t0) * 1e3)
-                for name in STAGES:
-                    stages[name].append(base.last_timings_ms.get(name, 0.0))
+                timings.append(dict(base.last_timings_ms))
                 poses.append(base.head_pose)
                 i += 1
                 if terminated or truncated:
@@ -101,8 +113,8 @@ def _round(steps: int, seed: int) -> dict[str, float]:
         "env_step_over_render_ratio": step / render,
         "env_reset_ms": statistics.median(reset_ms),
     }
-    for name, values in stages.items():
-        out[f"env_stage_{name}_ms"] = statistics.median(values)
+    for name in dict.fromkeys(name for t in timings for name in t):
+        out[f"env_stage_{name}_ms"] = statistics.median(t.get(name, 0.0) for t in timings)
     return out
 
 
@@ -118,8 +130,68 @@ def run(steps: int = 200, rounds: int = 3, *, quick: bool = False) -> dict[str, 
         raise ValueError(f"steps and rounds must be positive, got {steps}, {rounds}")
     if quick:
         steps, rounds = 40, 1
-    results = [_round(steps, seed=r) for r in range(rounds)]
-    return {name: statistics.median(r[name] for r in results) for name in results[0]}
+    return _medians([one_round(steps, seed=r) for r in range(rounds)])
+
+
+def _medians(results: list[dict[str, float]]) -> dict[str, float]:
+    """Each figure's median over the rounds that have it."""
+    names = dict.fromkeys(name for r in results for name in r)
+    return {name: statistics.median(r[name] for r in results if name in r) for name in names}
+
+
+def _round_in(tree: pathlib.Path, steps: int, seed: int) -> dict[str, float]:
+    """One round in a fresh subprocess whose ``stereo_nav_env`` (and ``modeling``, ``agents``)
+    come from the checkout ``tree``."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(tree), *filter(None, [env.get("PYTHONPATH")])])
+    with tempfile.TemporaryDirectory() as tmp:
+        out = pathlib.Path(tmp) / "round.json"
+        command = [sys.executable, __file__, "--steps", str(steps), "--seed", str(seed)]
+        subprocess.run([*command, "--round-json", str(out)], env=env, cwd=tree, check=True)
+        figures: dict[str, float] = json.loads(out.read_text())
+    return figures
+
+
+def run_against(
+    baseline: pathlib.Path, steps: int = 200, rounds: int = 3, *, quick: bool = False
+) -> tuple[dict[str, float], dict[str, float]]:
+    """The figures of this checkout and of the checkout ``baseline``, measured in one run.
+
+    Round ``r`` (seed ``r``) runs in both trees, this one first when ``r`` is even (so drift of
+    the machine's speed weighs on both alike); each round is a fresh subprocess.
+
+    Returns:
+        ``(this, baseline)``: each figure's median over the rounds, per tree.
+    """
+    if not (baseline / "stereo_nav_env" / "__init__.py").is_file():
+        raise ValueError(f"--baseline {baseline}: not a checkout (no stereo_nav_env/ package)")
+    if quick:
+        steps, rounds = 40, 1
+    trees = (ROOT, baseline.resolve())
+    results: dict[pathlib.Path, list[dict[str, float]]] = {tree: [] for tree in trees}
+    for r in range(rounds):
+        for tree in trees if r % 2 == 0 else trees[::-1]:
+            print(f"round {r + 1}/{rounds}: {tree}", flush=True)
+            results[tree].append(_round_in(tree, steps, seed=r))
+    return _medians(results[ROOT]), _medians(results[trees[1]])
+
+
+def compared(this: dict[str, float], baseline: dict[str, float]) -> dict[str, float]:
+    """Both trees' figures and their ratios (this / baseline), flat."""
+    out = dict(this)
+    out.update({f"baseline_{name}": value for name, value in baseline.items()})
+    for name in this:
+        if name in baseline:
+            out[f"{name}_vs_baseline_ratio"] = this[name] / baseline[name]
+    return out
+
+
+def print_comparison(this: dict[str, float], baseline: dict[str, float]) -> None:
+    """A table: each figure for this tree, the baseline and their ratio."""
+    print(f"  {'figure':<32s} {'this':>10s} {'baseline':>10s} {'ratio':>8s}")
+    for name in dict.fromkeys([*this, *baseline]):
+        a, b = this.get(name, math.nan), baseline.get(name, math.nan)
+        print(f"  {name:<32s} {a:10.4g} {b:10.4g} {a / b:8.3f}")
 
 
 def main(argv: list[str] | None = None) -> dict[str, float]:
@@ -129,9 +201,23 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     parser.add_argument("--rounds", type=int, default=3, help="repetitions of the measurement")
     parser.add_argument("--json", type=pathlib.Path, help="write the figures to this JSON file")
     parser.add_argument("--quick", action="store_true", help="40 steps, 1 round (smoke run)")
+    parser.add_argument(
+        "--baseline", type=pathlib.Path, help="another checkout to measure against, in one run"
+    )
+    parser.add_argument("--seed", type=int, default=0, help=argparse.SUPPRESS)
+    parser.add_argument("--round-json", type=pathlib.Path, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
-    figures = run(steps=args.steps, rounds=args.rounds, quick=args.quick)
-    print_figures(figures)
+    if args.round_json is not None:  # one round, in a subprocess of --baseline
+        figures = one_round(args.steps, args.seed)
+        args.round_json.write_text(json.dumps(figures))
+        return figures
+    if args.baseline is not None:
+        this, base = run_against(args.baseline, args.steps, args.rounds, quick=args.quick)
+        print_comparison(this, base)
+        figures = compared(this, base)
+    else:
+        figures = run(steps=args.steps, rounds=args.rounds, quick=args.quick)
+        print_figures(figures)
     write_figures(figures, args.json)
     return figures
 

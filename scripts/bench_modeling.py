@@ -24,14 +24,10 @@ import argparse
 import math
 import pathlib
 import statistics
-import sys
 import time
 from collections.abc import Callable
 
 import numpy as np
-
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
-
 from _figures import print_figures, write_figures
 
 from modeling.model import build_model
@@ -50,7 +46,8 @@ def stereo_cov(p: np.ndarray, viewpoint: np.ndarray, range_m: float | None = Non
     sig_lat = z * 0.5 / 260.0
     ang = math.atan2(d[1], d[0])
     R = np.array([[math.cos(ang), -math.sin(ang)], [math.sin(ang), math.cos(ang)]])
-    return R @ np.diag([sig_depth**2, sig_lat**2]) @ R.T
+    cov: np.ndarray = R @ np.diag([sig_depth**2, sig_lat**2]) @ R.T
+    return cov
 
 
 def _segment(a: np.ndarray, b: np.ndarray, vp: np.ndarray, range_m: float) -> FloorSegment:
@@ -128,7 +125,7 @@ def ambiguous_layout(
 
 def _times_ms(
     jobs: dict[str, tuple[Callable[[], object], int]], rounds: int, seconds: float = 0.0
-) -> dict[str, list]:
+) -> dict[str, list[float]]:
     """Wall times (ms) of each job, run in interleaved rounds after one warm-up call each.
 
     Interleaving spreads a burst of load from other processes over all the jobs instead of
@@ -137,7 +134,7 @@ def _times_ms(
     """
     for fn, _ in jobs.values():
         fn()
-    times: dict[str, list] = {name: [] for name in jobs}
+    times: dict[str, list[float]] = {name: [] for name in jobs}
     deadline = time.perf_counter() + seconds
     done = 0
     while done < rounds or time.perf_counter() < deadline:
@@ -160,8 +157,8 @@ def run(quick: bool = False, seconds: float = 20.0) -> dict[str, float]:
     obs_amb = ambiguous_layout(30, 3, rng)
     m = build_model(obs_amb, ROBOT_WIDTH_M, max_situations=64)
     m200 = build_model(obs200, ROBOT_WIDTH_M)
-    start = obs200.viewpoint[:2]
-    goal = start + np.array([15.0, 0.0])
+    x0, y0 = (float(v) for v in obs200.viewpoint[:2])
+    start, goal = (x0, y0), (x0 + 15.0, y0)
     graph = path_graph(m200.situations[0], start, goal)
     jobs = {
         "200": (lambda: build_model(obs200, ROBOT_WIDTH_M), 5),

@@ -14,13 +14,10 @@ import math
 import os
 import pathlib
 import statistics
-import sys
 import time
 from collections.abc import Sequence
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
-
 from _figures import print_figures, write_figures
 
 from modeling.rig import HeadPose, StereoRig

@@ -64,7 +64,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float | int]]:
         **kw,
     )
     results = evaluate(args.agent, cfg, workers=args.workers, progress=not args.no_progress)
-    summary = summarize(results)
+    summary = summarize(dict(results))
     args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps(summary, indent=2) + "\n")
     table = markdown_table(summary)
@@ -76,7 +76,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float | int]]:
         plot_summary(summary, args.plot)
     if args.details is not None:
         args.details.parent.mkdir(parents=True, exist_ok=True)
-        args.details.write_text(json.dumps(episode_records(results), indent=1) + "\n")
+        args.details.write_text(json.dumps(episode_records(dict(results)), indent=1) + "\n")
     return summary
 
 

@@ -1,4 +1,6 @@
-"""The layering of ARCHITECTURE.md: imports go modeling <- stereo_nav_env <- agents <- scripts."""
+"""The layering of ARCHITECTURE.md: imports go modeling <- stereo_nav_env <- agents <- scripts,
+``modeling`` stays pure, and no package or script imports another package's private modules or
+names."""
 
 from __future__ import annotations
 
@@ -27,6 +29,8 @@ FORBIDDEN = {
     "agents": set(),
 }
 ONLY_IMPORTER = {"pymunk": "stereo_nav_env/world.py", "pyrender": "stereo_nav_env/render.py"}
+PACKAGES = ("modeling", "stereo_nav_env", "agents")
+"""The project's packages; scripts/ holds programs that import them."""
 
 
 def _imported_roots(path: pathlib.Path) -> set[str]:
@@ -38,6 +42,59 @@ def _imported_roots(path: pathlib.Path) -> set[str]:
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             roots.add(node.module.split(".")[0])
     return roots
+
+
+def _private_imports(path: pathlib.Path, own: str) -> list[str]:
+    """The imports in ``path`` of a private module or name of a project package but ``own``.
+
+    Private: a dotted component or an imported name that starts with ``_`` (``modeling._compiled``,
+    ``from modeling.model import _helper``); dunder names such as ``__version__`` are not.
+    """
+
+    def private(name: str) -> bool:
+        return name.startswith("_") and not name.endswith("__")
+
+    tree = ast.parse(path.read_text(), filename=str(path))
+    found: list[str] = []
+    for node in ast.walk(tree):
+        targets: list[tuple[str, list[str]]]
+        if isinstance(node, ast.Import):
+            targets = [(alias.name, []) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            targets = [(node.module, [alias.name for alias in node.names])]
+        else:
+            continue
+        for module, names in targets:
+            parts = module.split(".")
+            if parts[0] not in PACKAGES or parts[0] == own:
+                continue
+            if any(private(p) for p in parts) or any(private(n) for n in names):
+                found.append(f"{module}: {', '.join(names)}" if names else module)
+    return found
+
+
+@pytest.mark.parametrize("folder", [*PACKAGES, "scripts"])
+def test_no_private_imports_across_packages(folder: str) -> None:
+    bad = {
+        str(path.relative_to(ROOT)): _private_imports(path, own=folder)
+        for path in (ROOT / folder).rglob("*.py")
+    }
+    assert {k: v for k, v in bad.items() if v} == {}
+
+
+def test_private_import_check_names_what_it_finds(tmp_path: pathlib.Path) -> None:
+    path = tmp_path / "module.py"
+    path.write_text(
+        "import modeling._compiled.jit\n"
+        "from modeling.model import _helper, build_model\n"
+        "from modeling import __version__, build_model\n"
+        "from stereo_nav_env._x import y\n"
+        "from ._local import z\n"
+    )
+    assert _private_imports(path, own="stereo_nav_env") == [
+        "modeling._compiled.jit",
+        "modeling.model: _helper, build_model",
+    ]
 
 
 @pytest.mark.parametrize("package", sorted(FORBIDDEN))

@@ -1,11 +1,11 @@
 """Issue 3 acceptance on rendered scenes: 20 seeded scenes (every family, start views and views of
 bookshelf fronts), 320x240, Gaussian pixel noise (sigma 2 grey levels), ground truth from the
 renderer's depth and the scenes' obstacle footprints. The measuring code and the definitions of the
-figures are in ``scripts/bench_stereo.py`` (the benchmark prints the same figures). Speed (<= 5 ms
-median per pair) is a benchmark figure only: wall-clock time under a parallel test run is not
+figures are in :mod:`stereo_nav_env.stereo_eval` (``scripts/bench_stereo.py`` prints the same
+figures). Speed is a benchmark figure only: wall-clock time under a parallel test run is not
 deterministic.
 
-Definitions in short (see the benchmark's docstring):
+Definitions in short (see that module's docstring):
 
 * a match is *correct* when its disparity is within 1 px of the truth at the midpoint;
 * an ambiguous left segment's true partner is *available* when a segment of the right image's
@@ -20,26 +20,14 @@ Definitions in short (see the benchmark's docstring):
 
 from __future__ import annotations
 
-import os
-import pathlib
-import sys
-
 import pytest
 
-os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "scripts"))
-
-pytest.importorskip("stereo_nav_env.render")
-bench_stereo = pytest.importorskip("bench_stereo")
+from stereo_nav_env.stereo_eval import evaluate, summarise
 
 
 @pytest.fixture(scope="module")
 def figures() -> dict[str, float]:
-    try:
-        results = bench_stereo.evaluate(20, seed=0, noise_sigma=2.0, sgbm=False, repeats=1)
-    except RuntimeError as exc:  # pragma: no cover - no OpenGL on this machine
-        pytest.skip(f"rendering unavailable: {exc}")
-    return bench_stereo.summarise(results)
+    return summarise(evaluate(20, seed=0, noise_sigma=2.0, sgbm=False, repeats=1))
 
 
 def test_enough_views_and_matches(figures: dict[str, float]) -> None:

@@ -1,23 +1,33 @@
-"""Smoke tests of the command-line programs (thin argparse glue over ``agents``)."""
+"""Smoke tests of the command-line programs (thin argparse glue over ``agents``).
+
+Each script is loaded from its file (scripts/ is not a package) and its ``main(argv)`` called.
+"""
 
 from __future__ import annotations
 
 import importlib.util
 import json
 import pathlib
+from types import ModuleType
+
+import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
-def _script(name: str):
-    spec = importlib.util.spec_from_file_location(f"script_{name}", ROOT / "scripts" / f"{name}.py")
+def _script(name: str) -> ModuleType:
+    """The module of ``scripts/<name>.py``."""
+    path = ROOT / "scripts" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"script_{name}", path)
+    assert spec is not None and spec.loader is not None, path
     module = importlib.util.module_from_spec(spec)
-    assert spec.loader is not None
     spec.loader.exec_module(module)
     return module
 
 
-def test_evaluate_writes_json_markdown_plot_and_details(tmp_path, capsys) -> None:
+def test_evaluate_writes_json_markdown_plot_and_details(
+    tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     out = tmp_path / "eval.json"
     summary = _script("evaluate").main(
         [
@@ -43,7 +53,9 @@ def test_evaluate_writes_json_markdown_plot_and_details(tmp_path, capsys) -> Non
     assert "| random | 2 |" in capsys.readouterr().out
 
 
-def test_demo_writes_gif_figure_and_summary(tmp_path, small_map, capsys) -> None:
+def test_demo_writes_gif_figure_and_summary(
+    tmp_path: pathlib.Path, small_map: pathlib.Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     result = _script("demo").main(
         ["--scenario", str(small_map), "--seed", "0", "--out", str(tmp_path / "demo"),
          "--max-steps", "12"]
@@ -57,7 +69,7 @@ def test_demo_writes_gif_figure_and_summary(tmp_path, small_map, capsys) -> None
     assert len(lines) == 12
 
 
-def test_train_runs_end_to_end(tmp_path, small_map) -> None:
+def test_train_runs_end_to_end(tmp_path: pathlib.Path, small_map: pathlib.Path) -> None:
     result = _script("train").main(
         ["--timesteps", "64", "--n-envs", "1", "--out", str(tmp_path / "ppo"), "--n-steps", "32",
          "--batch-size", "32", "--eval-freq", "0", "--checkpoint-freq", "0",
