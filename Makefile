@@ -1,5 +1,5 @@
 # stereo-nav: `make demo` and `make test` each set up .venv from nothing, then run.
-# `make test` runs the whole suite, then the lint and type checks (`make lint`); CI runs it.
+# `make test` runs the lint and type checks (`make lint`), then the whole suite; CI runs it.
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed
 TORCH_CPU := torch==2.13.0
 export PYOPENGL_PLATFORM ?= egl
 
-.PHONY: demo test lint format benchmark evaluate clean
+.PHONY: demo test lint format benchmark soak fuzz clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -24,8 +24,8 @@ demo: $(STAMP)
 	$(PY) scripts/demo.py --out out/demo
 
 test: $(STAMP)
-	$(PY) -m pytest -q -n 2 tests
 	$(MAKE) --no-print-directory lint
+	$(PY) -m pytest -q -n 2 tests
 
 lint: $(STAMP)
 	$(PY) -m ruff check .
@@ -41,6 +41,16 @@ format: $(STAMP)
 benchmark: $(STAMP)
 	$(PY) scripts/benchmark.py --json out/benchmark.json --report docs/benchmarks.md \
 		--summary docs/benchmark_summary.md --readme README.md
+
+# Long runs for leaks and hangs (10,000 steps, 1,000 create/close cycles, vector envs).
+soak: $(STAMP)
+	$(PY) scripts/soak.py --json out/soak.json
+
+# The hypothesis properties over modeling inputs and map files with 10,000 examples each.
+fuzz: $(STAMP)
+	HYPOTHESIS_PROFILE=soak $(PY) -m pytest -q -n 2 --hypothesis-show-statistics \
+		tests/modeling/test_robustness.py \
+		tests/stereo_nav_env/test_map_validation.py::test_mutated_maps_are_refused_or_load
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .ruff_cache .mypy_cache

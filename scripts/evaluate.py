@@ -14,10 +14,8 @@ import argparse
 import json
 import os
 import pathlib
-import sys
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 from agents.evaluation import (
     SuiteConfig,

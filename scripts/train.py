@@ -13,10 +13,8 @@ from __future__ import annotations
 import argparse
 import os
 import pathlib
-import sys
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 from agents.training import TrainConfig, TrainResult, train_ppo
 

@@ -18,6 +18,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -36,7 +37,7 @@ __all__ = [
     "vector_steps",
 ]
 
-SMALL_CAMERA = {"width_px": 160, "height_px": 120, "focal_px": 130.0}
+SMALL_CAMERA: dict[str, Any] = {"width_px": 160, "height_px": 120, "focal_px": 130.0}
 """A quarter-size pair (the default field of view) for the create/close and vector phases."""
 
 
@@ -163,8 +164,8 @@ def random_steps(steps: int, *, seed: int = 0, deadline_s: float = 3600.0) -> Ph
     env.reset(seed=seed)
 
     def one(_: int) -> None:
-        _, _, terminated, truncated, _ = env.step(env.action_space.sample())
-        if terminated or truncated:
+        step = env.step(env.action_space.sample())
+        if step[2] or step[3]:  # terminated or truncated
             env.reset()
 
     try:
@@ -207,7 +208,7 @@ def vector_steps(
     return _phase("vector env rounds", rounds, min(1, rounds - 1), deadline_s, one)
 
 
-def make_small_env() -> gym.Env:  # type: ignore[type-arg]
+def make_small_env() -> gym.Env[Any, Any]:
     """A ``StereoNav-v0`` of random families with the quarter-size pair (picklable by reference,
     so a spawned vector-env worker imports this module and with it the registration)."""
     return gym.make("StereoNav-v0", scenario="random", **SMALL_CAMERA)

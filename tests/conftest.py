@@ -10,14 +10,16 @@ from collections.abc import Iterator
 import pytest
 from hypothesis import HealthCheck, settings
 
+from modeling.rig import StereoRig
+
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
-# Hypothesis profiles: "ci" (the default: deterministic, a few hundred examples per property) and
+# Hypothesis profiles: "ci" (the default: deterministic, 100 examples per property) and
 # "soak" (10,000 examples: ``make fuzz``). Tests with explicit @settings keep their own counts.
 _QUIET = [HealthCheck.too_slow, HealthCheck.data_too_large]
 settings.register_profile(
     "ci",
-    max_examples=200,
+    max_examples=100,
     deadline=None,
     derandomize=True,
     database=None,
@@ -32,8 +34,6 @@ settings.register_profile(
     suppress_health_check=_QUIET,
 )
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
-
-from modeling.rig import StereoRig
 
 
 @pytest.fixture(scope="session")
