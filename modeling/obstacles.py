@@ -23,13 +23,24 @@ from modeling._compiled.hull import HullSets, Polygons
 from modeling.records import Obstacle
 from modeling.validation import FloatArray
 
-__all__ = ["components", "finish_hulls_reference", "hulls", "make_obstacles"]
+__all__ = [
+    "components",
+    "components_reference",
+    "finish_hulls_reference",
+    "hulls",
+    "make_obstacles",
+]
 
 _POLYGON_TYPE_ID = 3  # shapely.get_type_id of a Polygon
 
 
 def components(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
     """Connected components of the undirected graph on ``n`` nodes with edges ``(i[k], j[k])``.
+
+    A compiled union-find (:func:`modeling._compiled.hull.union_find`): several calls per model,
+    each 2-4 us against 0.1-0.15 ms for scipy's csgraph, whose input checks dominate at these
+    sizes (0.3-0.7 ms per env step). Its reference, :func:`components_reference`, is csgraph; a
+    test holds the two equal.
 
     Args:
         n: Number of nodes (>= 0).
@@ -40,7 +51,17 @@ def components(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
         (n,) int64 label of each node: the smallest node of its component (so components are
         numbered in the order of their smallest node wherever the labels are sorted).
     """
-    if len(i) == 0:  # no edges: every node is its own component (no need for csgraph)
+    if len(i) == 0:  # no edges: every node is its own component
+        return np.arange(n, dtype=np.int64)
+    labels: np.ndarray = _hull_kernel.union_find(
+        n, np.asarray(i, dtype=np.int64), np.asarray(j, dtype=np.int64)
+    )
+    return labels
+
+
+def components_reference(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """:func:`components` by scipy's csgraph (the readable reference of the compiled loop)."""
+    if len(i) == 0:
         return np.arange(n, dtype=np.int64)
     # The edges as a sparse matrix in CSR form (rows sorted by i): half the cost of a COO one.
     order = np.argsort(i, kind="stable")

@@ -1,6 +1,7 @@
-"""Compiled loop of :mod:`modeling.obstacles`: the outline polygons (:func:`finish_hulls`, after
-GEOS has made the convex hulls); its readable reference is
-:func:`modeling.obstacles.finish_hulls_reference`.
+"""Compiled loops of :mod:`modeling.obstacles`: the outline polygons (:func:`finish_hulls`, after
+GEOS has made the convex hulls; reference :func:`modeling.obstacles.finish_hulls_reference`) and
+the connected components (:func:`union_find`; reference
+:func:`modeling.obstacles.components_reference`, scipy's csgraph).
 
 Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not
 import Numba.
@@ -149,3 +150,34 @@ def finish_hulls(sets: HullSets) -> Polygons:
             out[o + 3, 0], out[o + 3, 1] = ax_ - tx + nx, ay_ - ty + ny
         first += counts[s]
     return Polygons(out, offsets)
+
+
+@compiled_on_first_call
+def union_find(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """Connected components of the graph on ``n`` nodes with edges ``(i[k], j[k])``.
+
+    Union-find with path halving: each edge hooks the larger of its two roots onto the smaller
+    (so every parent is smaller than its child, and a root is the smallest node of its tree), then
+    one pass in node order points every node at its root. Reference:
+    :func:`modeling.obstacles.components_reference` (scipy's csgraph).
+
+    Returns:
+        (n,) int64 label of each node: the smallest node of its component.
+    """
+    parent = np.arange(n)
+    for k in range(i.shape[0]):
+        a = i[k]
+        while parent[a] != a:  # path halving on the way up
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        b = j[k]
+        while parent[b] != b:
+            parent[b] = parent[parent[b]]
+            b = parent[b]
+        if a < b:
+            parent[b] = a
+        elif b < a:
+            parent[a] = b
+    for v in range(n):  # its parent, smaller, points at the root already
+        parent[v] = parent[parent[v]]
+    return parent

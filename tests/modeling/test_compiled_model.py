@@ -6,7 +6,12 @@ import numpy as np
 import pytest
 
 from modeling._compiled.hull import finish_hulls
-from modeling.obstacles import _geos_hulls, finish_hulls_reference
+from modeling.obstacles import (
+    _geos_hulls,
+    components,
+    components_reference,
+    finish_hulls_reference,
+)
 
 
 def _random_sets(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -55,3 +60,14 @@ def test_finish_hulls_kernel_equals_reference_on_one_grow_for_all() -> None:
     got, want = finish_hulls(sets), finish_hulls_reference(sets)
     np.testing.assert_array_equal(got.vertices, want.vertices)
     np.testing.assert_array_equal(got.offsets, want.offsets)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_union_find_equals_the_csgraph_reference(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    for n in (1, 2, 7, 40, 300):
+        m = int(rng.integers(0, 2 * n + 1))
+        i, j = rng.integers(0, n, m), rng.integers(0, n, m)
+        got, want = components(n, i, j), components_reference(n, i, j)
+        assert got.dtype == want.dtype == np.int64
+        np.testing.assert_array_equal(got, want)
