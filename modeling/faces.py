@@ -13,35 +13,41 @@ it meets the floor on other image rows.
 between their floor points (the face's outline on the floor), so that the model of section 2 sees
 an obstacle where there is one. Both edges must be near-vertical in the image, within
 ``max_range_m`` of the camera and at most ``max_length_m`` apart on the floor, and both must reach
-down to the floor (their lowest kept point at most ``floor_reach_m`` high). The near-horizontal
+down to the floor (their lowest kept point at most ``floor_reach_m`` high) (the options are
+:class:`FaceOptions`). The near-horizontal
 lines must cover at least ``min_cover`` of the image line between the two lower ends, each line
-within ``tol_px`` of it (the options: :class:`FaceOptions`). Top edges (``tops=True``: both tops
-below the kept band's top, at equal heights within ``top_match_m``) are off by default: in
-furnished rooms the long top edges of tables and shelves pass by the tops of other objects' edges,
-and about one top join in four was false on the evaluation scenes, against about one bottom join
-in twenty (``scripts/evaluate.py`` suite, checked against the true footprints).
+within ``tol_px`` of it. Top edges (``tops=True``: both tops below the kept band's top, at equal
+heights within ``top_match_m``) are off by default: in furnished rooms the long top edges of
+tables and shelves pass by the tops of other objects' edges, and about one top join in four was
+false on the evaluation scenes, against about one bottom join in twenty (``scripts/evaluate.py``
+suite, checked against the true footprints).
 
 This is an addition to the paper's pipeline (which uses vertical and oblique segments only); it
 can be turned off where the paper's pipeline alone is wanted (``close_faces=False`` in the env and
 in :func:`modeling.pipeline.stereo_to_floor`).
+
+The pair test is one compiled pass (:func:`modeling._compiled.face.face_joins`);
+:func:`face_joins_reference` is the same test in plain NumPy, the one to read (and to change
+first: a test holds the two equal).
 """
 
 from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from modeling._compiled.face import FaceEdges, FaceJoins, FaceTest, face_joins
 from modeling.observation import FloorObservation, FloorSegment
 from modeling.segments import ImageSegments
 from modeling.validation import boolean, positive, with_overrides
 
-__all__ = ["FACE_SOURCE", "FaceOptions", "close_faces", "face_pairs"]
+__all__ = ["FACE_SOURCE", "FaceOptions", "close_faces", "face_joins_reference", "face_pairs"]
 
-FloatArray = NDArray[np.float64]
+
 IntArray = NDArray[np.int64]
 
 #: ``FloorSegment.source`` of a face's segment (it joins two measured segments, is not one).
@@ -106,65 +112,46 @@ class FaceOptions:
         boolean(self.tops, "tops")
 
 
-class _Edges(NamedTuple):
-    """The candidate edges (unambiguous floor segments of image segments) and the
-    near-horizontal image lines that may join them.
-
-    Attributes:
-        floor_pts: (c, 2, 2) each edge's floor points (top end, bottom end), metres.
-        ends_img: (c, 2, 2) each edge's image ends (top, bottom), px.
-        slope: (c,) each edge's du/dv.
-        top_h: (c,) each edge's top height, metres.
-        lines: (k, 2, 2) the near-horizontal image lines, px.
-    """
-
-    floor_pts: FloatArray
-    ends_img: FloatArray
-    slope: FloatArray
-    top_h: FloatArray
-    lines: FloatArray
-
-
-def _joins(edges: _Edges, eligible: IntArray, end: int, opts: FaceOptions) -> list[tuple[int, int]]:
-    """The pairs of ``eligible`` edges whose ``end``s (1: bottom, 0: top) a line joins (the test
-    of this module, an addition to the paper).
+def face_joins_reference(edges: FaceEdges, eligible: IntArray, test: FaceTest) -> FaceJoins:
+    """The pairs of ``eligible`` edges whose ``test.end``s a near-horizontal line joins: the
+    readable NumPy form of the compiled :func:`modeling._compiled.face.face_joins`, which gives the
+    same pairs (an addition to the paper, see the module docstring).
 
     For each pair of eligible edges (tops: at equal heights within ``top_match_m``) at most
-    ``max_length_m`` apart on the floor, the two image ends are moved ``extend_px`` rows along
-    their edges (down for the bottom, up for the top) and joined by an image line (at least 1 px
-    long). The lines whose two ends lie within ``tol_px`` of it are projected onto it (parameters
-    clipped to [0, 1]); the pair is joined when the union of those intervals covers at least
-    ``min_cover`` of it.
+    ``max_length_m`` apart on the floor, the two image ends are moved ``step`` rows along their
+    edges and joined by an image line (at least 1 px long). The lines whose two ends lie within
+    ``tol_px`` of it are projected onto it (parameters clipped to [0, 1]); the pair is joined
+    when the union of those intervals covers at least ``min_cover``.
 
     Args:
         edges: The candidate edges and the lines.
         eligible: (e,) the candidates that may be joined at this end, ascending.
-        end: 1 (bottom) or 0 (top).
-        opts: The thresholds.
+        test: The end and the thresholds.
 
     Returns:
-        The joined pairs (indices into the candidates), the left one in the image first, in the
-        order of ``itertools.combinations(eligible, 2)``.
+        The joined pairs, the left one in the image first, in the order of
+        ``itertools.combinations(eligible, 2)``.
     """
+    end = test.end
     floor_pts, ends_img, slope, top_h, hor = edges
     pairs = [
         (i, j)
         for i, j in itertools.combinations(eligible.tolist(), 2)
-        if end == 1 or abs(top_h[i] - top_h[j]) <= opts.top_match_m
+        if end == 1 or abs(top_h[i] - top_h[j]) <= test.top_match_m
     ]
+    none = FaceJoins(np.zeros(0, np.int64), np.zeros(0, np.int64))
     if not pairs:
-        return []
+        return none
     a, b = np.array(pairs, dtype=np.int64).T
     d_floor = floor_pts[b, end] - floor_pts[a, end]
-    short = np.hypot(d_floor[:, 0], d_floor[:, 1]) <= opts.max_length_m
+    short = np.hypot(d_floor[:, 0], d_floor[:, 1]) <= test.max_length_m
     # the image ends, moved along their edges past the last edge point
-    step = (1.0 if end == 1 else -1.0) * opts.extend_px
     P = ends_img[a, end]
-    P[:, 0] += step * slope[a]
-    P[:, 1] += step
+    P[:, 0] += test.step * slope[a]
+    P[:, 1] += test.step
     D = ends_img[b, end]
-    D[:, 0] += step * slope[b]
-    D[:, 1] += step
+    D[:, 0] += test.step * slope[b]
+    D[:, 1] += test.step
     D -= P
     L2 = D[:, 0] * D[:, 0] + D[:, 1] * D[:, 1]
     keep = np.flatnonzero(short & (L2 >= 1.0))
@@ -174,17 +161,23 @@ def _joins(edges: _Edges, eligible: IntArray, end: int, opts: FaceOptions) -> li
     ry = hor[None, :, :, 1] - P[:, None, None, 1]
     dx, dy = D[:, None, None, 0], D[:, None, None, 1]
     inv = (1.0 / L2)[:, None, None]
-    near = (np.abs(dx * ry - dy * rx) <= opts.tol_px * np.sqrt(L2)[:, None, None]).all(axis=2)
+    near = (np.abs(dx * ry - dy * rx) <= test.tol_px * np.sqrt(L2)[:, None, None]).all(axis=2)
     along = (dx * rx + dy * ry) * inv
     t0 = along.min(axis=2).clip(0.0, 1.0)
     t1 = along.max(axis=2).clip(0.0, 1.0)
-    out: list[tuple[int, int]] = []
+    first: list[int] = []
+    second: list[int] = []
     for q in range(a.shape[0]):
         lines = np.flatnonzero(near[q])
-        if lines.size and _covered(t0[q, lines].tolist(), t1[q, lines].tolist()) >= opts.min_cover:
+        if lines.size and _covered(t0[q, lines].tolist(), t1[q, lines].tolist()) >= test.min_cover:
             i, j = int(a[q]), int(b[q])
-            out.append((j, i) if ends_img[i, end, 0] > ends_img[j, end, 0] else (i, j))
-    return out
+            if ends_img[i, end, 0] > ends_img[j, end, 0]:
+                i, j = j, i
+            first.append(i)
+            second.append(j)
+    if not first:
+        return none
+    return FaceJoins(np.array(first, np.int64), np.array(second, np.int64))
 
 
 def _covered(starts: list[float], stops: list[float]) -> float:
@@ -252,12 +245,23 @@ def face_pairs(
     vertical = (np.abs(slope) <= opts.max_slope) & (rng <= opts.max_range_m)
     reach_floor = vertical & (heights_lo <= opts.floor_reach_m)
     top_seen = vertical & (top_h < opts.max_height_m - 0.02)
-    edges = _Edges(floor_pts, left.endpoints[src], slope, top_h, hor)
+    edges = FaceEdges(floor_pts, left.endpoints[src], slope, top_h, hor)
     out: list[tuple[int, int, int]] = []
     for end in (1, 0) if opts.tops else (1,):
-        # bottoms: both edges reach the floor; tops: both seen (below the band's top)
-        eligible = np.flatnonzero(reach_floor if end == 1 else top_seen)
-        out.extend((int(cand[a]), int(cand[b]), end) for a, b in _joins(edges, eligible, end, opts))
+        # bottoms: both edges reach the floor; tops: both seen, at equal heights
+        test = FaceTest(
+            end=end,
+            step=(1.0 if end == 1 else -1.0) * opts.extend_px,
+            top_match_m=opts.top_match_m,
+            max_length_m=opts.max_length_m,
+            tol_px=opts.tol_px,
+            min_cover=opts.min_cover,
+        )
+        joins = face_joins(edges, np.flatnonzero(reach_floor if end == 1 else top_seen), test)
+        out.extend(
+            (i, j, end)
+            for i, j in zip(cand[joins.first].tolist(), cand[joins.second].tolist(), strict=True)
+        )
     return out
 
 
