@@ -91,7 +91,7 @@ def one_round(steps: int, seed: int) -> dict[str, float]:
                     t0 = time.perf_counter()
                     env.reset()
                     reset_ms.append((time.perf_counter() - t0) * 1e3)
-            renderer = base._get_renderer()
+            renderer = base.stereo_renderer()
             for pose in poses:
                 t0 = time.perf_counter()
                 renderer.render_stereo(pose)

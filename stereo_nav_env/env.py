@@ -285,7 +285,10 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             self._pair = (left, right)
         return self._pair
 
-    def _get_renderer(self) -> StereoRenderer:
+    def stereo_renderer(self) -> StereoRenderer:
+        """The renderer of the current scene (made on first use, kept across resets): for tools
+        that render poses of their own, e.g. a benchmark timing the pair alone."""
+        self._require_world()
         assert self.scene is not None
         if self._renderer is None:
             self._renderer = StereoRenderer(self.rig, self.scene)
@@ -304,7 +307,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             levels = draw_noise_levels(self.np_random, rig.height_px, rig.width_px)
         watch.lap("noise")
         head = self.head_pose
-        self._clean_pair = self._get_renderer().render_stereo(head)
+        self._clean_pair = self.stereo_renderer().render_stereo(head)
         watch.lap("render")
         # the pipeline sees the noisy grey images; the noisy RGB pair (the same noise on every
         # channel) is made only when someone asks for it (images observation, render_stereo)
