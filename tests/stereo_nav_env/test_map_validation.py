@@ -16,7 +16,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+import shapely
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 import stereo_nav_env  # noqa: F401  (registers the ids)
@@ -207,14 +208,30 @@ def mutated_maps(draw: st.DrawFn) -> dict[str, Any]:
 
 
 def _load(data: dict[str, Any]) -> str | None:
-    """The map's path if it loads and is drivable, else ``None`` (a ValueError was raised)."""
+    """The map's path if it loads and is drivable, else ``None`` (a ValueError was raised).
+
+    An accepted map is checked against the rules directly (not through the loader's own checks):
+    finite numbers, the limits, start and goal in the bounds and clear of every footprint by the
+    robot's radius.
+    """
     tmp = pathlib.Path(tempfile.mkdtemp())
     path = _write(tmp, data)
     try:
-        load_scenario(str(path))
+        scene = load_scenario(str(path))
     except ValueError as exc:
         assert str(exc), "the error says what is wrong"
+        event("refused with a ValueError")
         return None
+    event("accepted")
+    radius = 0.25  # the default robot's
+    xmin, ymin, xmax, ymax = scene.bounds
+    assert (xmax - xmin) * (ymax - ymin) <= MAP_LIMITS.max_area_m2
+    assert len(scene.obstacles) <= MAP_LIMITS.max_obstacles
+    for xy in (scene.start[:2], scene.goal):
+        assert xmin + radius <= xy[0] <= xmax - radius and ymin + radius <= xy[1] <= ymax - radius
+        for ob in scene.obstacles:
+            assert np.all(np.isfinite(ob.footprint)) and ob.height_m > 0
+            assert shapely.Polygon(ob.footprint).distance(shapely.Point(*xy)) >= radius - 1e-9
     return str(path)
 
 
