@@ -26,10 +26,10 @@ import shapely
 from numpy.typing import NDArray
 from scipy.special import ndtri
 
+from modeling.jit import compiled_on_first_call
 from modeling.model import EnvironmentModel, build_model
 from modeling.pipeline import stereo_to_floor
 from modeling.rig import HeadPose, StereoRig
-from stereo_nav_env._jit import compiled_on_first_call
 
 __all__ = [
     "ComparableModel",

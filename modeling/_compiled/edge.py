@@ -8,7 +8,7 @@ accumulated. The arithmetic is that of the NumPy reference
 sums), written as one loop so that it costs a fraction of the many array passes. It takes and
 returns the small named tuples below.
 
-It is compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module
+It is compiled with Numba on first use (:mod:`modeling.jit`); importing this module
 does not import Numba.
 """
 
@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from modeling._compiled.jit import compiled_on_first_call
+from modeling.jit import compiled_on_first_call
 
 
 class LinesToFit(NamedTuple):

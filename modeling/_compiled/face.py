@@ -6,7 +6,7 @@ order, as the readable NumPy reference beside the public function
 (:func:`modeling.faces.face_joins_reference`), so the pairs found are identical; a test compares
 the two on seeded random inputs.
 
-Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not
+Compiled with Numba on first use (:mod:`modeling.jit`); importing this module does not
 import Numba.
 """
 
@@ -17,7 +17,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._compiled.jit import compiled_on_first_call
+from modeling.jit import compiled_on_first_call
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]

@@ -7,7 +7,7 @@ Gauss-Hermite rule for smooth pairs (8 nodes for the smoothest), 16-node Gauss-L
 a model costs a few array allocations instead of a few hundred small array operations. Loops take
 and return the small named structures below. ``Phi(x)`` is ``erfc(-x / sqrt 2) / 2``.
 
-Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not
+Compiled with Numba on first use (:mod:`modeling.jit`); importing this module does not
 import Numba. Each loop has a readable reference beside its public function (in
 :mod:`modeling.gaps` or :mod:`modeling.relations`), and ``tests/modeling/test_compiled_gap.py``
 compares the two on seeded random inputs.
@@ -20,7 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from modeling._compiled.jit import compiled_helper, compiled_on_first_call
+from modeling.jit import compiled_helper, compiled_on_first_call
 
 _SQRT1_2 = 1.0 / math.sqrt(2.0)
 _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)

@@ -3,7 +3,7 @@ GEOS has made the convex hulls; reference :func:`modeling.obstacles.finish_hulls
 the connected components (:func:`union_find`; reference
 :func:`modeling.obstacles.components_reference`, scipy's csgraph).
 
-Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not
+Compiled with Numba on first use (:mod:`modeling.jit`); importing this module does not
 import Numba.
 """
 
@@ -14,7 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from modeling._compiled.jit import compiled_on_first_call
+from modeling.jit import compiled_on_first_call
 
 
 class HullSets(NamedTuple):

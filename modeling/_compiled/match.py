@@ -7,7 +7,7 @@ as its readable NumPy reference,
 saves some forty NumPy calls per image pair (0.5-0.9 ms per env step). It takes and returns the
 small named tuples below.
 
-Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not
+Compiled with Numba on first use (:mod:`modeling.jit`); importing this module does not
 import Numba.
 """
 
@@ -17,7 +17,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from modeling._compiled.jit import compiled_on_first_call
+from modeling.jit import compiled_on_first_call
 
 
 class Candidates(NamedTuple):

@@ -8,7 +8,7 @@ compares the two on seeded random inputs. It stays compiled because it saves abo
 time per env step against the reference (medians over 300 env steps, each triangulated both ways:
 0.20 vs 0.56 ms).
 
-Compiled with Numba on first use (:mod:`modeling._compiled.jit`); importing this module does not
+Compiled with Numba on first use (:mod:`modeling.jit`); importing this module does not
 import Numba.
 """
 
@@ -19,7 +19,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._compiled.jit import compiled_helper, compiled_on_first_call
+from modeling.jit import compiled_helper, compiled_on_first_call
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
