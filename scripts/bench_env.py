@@ -91,7 +91,13 @@ def one_round(steps: int, seed: int) -> dict[str, float]:
                     t0 = time.perf_counter()
                     env.reset()
                     reset_ms.append((time.perf_counter() - t0) * 1e3)
-            renderer = base.stereo_renderer()
+            # stereo_renderer() is public since the refactor; older checkouts (--baseline) had
+            # only the private _get_renderer().
+            get_renderer = getattr(base, "stereo_renderer", None) or getattr(
+                base, "_get_renderer", None
+            )
+            assert get_renderer is not None
+            renderer = get_renderer()
             for pose in poses:
                 t0 = time.perf_counter()
                 renderer.render_stereo(pose)
