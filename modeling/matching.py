@@ -57,7 +57,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._compiled.match import Candidates, Decision, PeakRule, decide
+from modeling._compiled.match import (
+    Candidates,
+    Constraints,
+    Decision,
+    PeakRule,
+    SegmentColumns,
+    candidate_grid,
+    decide,
+)
 from modeling.disparity_histograms import Splat, histogram_inputs, region_histograms
 from modeling.rig import StereoRig
 from modeling.segments import ImageSegments
@@ -67,6 +75,7 @@ __all__ = [
     "MatchCandidates",
     "MatchOptions",
     "StereoMatches",
+    "candidates_reference",
     "match_candidates",
     "match_segments",
 ]
@@ -351,11 +360,48 @@ def _near(segments: ImageSegments) -> tuple[FloatArray, FloatArray]:
     return left, right
 
 
+def _columns(segments: ImageSegments) -> SegmentColumns:
+    """The arrays of ``segments`` that the candidate grid reads."""
+    near_left, near_right = _near(segments)
+    return SegmentColumns(
+        endpoints=segments.endpoints,
+        angle=segments.angle_rad,
+        polarity=segments.polarity,
+        grey_far_left=segments.grey_left,
+        grey_far_right=segments.grey_right,
+        grey_near_left=near_left,
+        grey_near_right=near_right,
+        u_center=segments.u_center,
+        slope=segments.slope,
+        v_center=segments.v_center,
+    )
+
+
 def _candidates(
     left: ImageSegments, right: ImageSegments, rig: StereoRig, options: MatchOptions
 ) -> Candidates:
+    """The (left, right) pairs that pass the matching constraints, by the compiled loop
+    :func:`modeling._compiled.match.candidate_grid` (equal to :func:`candidates_reference`)."""
+    o = options
+    constraints = Constraints(
+        min_overlap_px=o.min_overlap_px,
+        min_overlap_frac=o.min_overlap_frac,
+        max_angle_rad=math.radians(o.max_angle_diff_deg),
+        allow_opposite=o.allow_opposite,
+        max_grey_diff=o.max_grey_diff,
+        max_near_grey_diff=o.max_near_grey_diff,
+        min_disparity_px=max(rig.min_disparity_px - o.agree_px, 1e-3),
+        max_disparity_px=rig.max_disparity_px + o.agree_px,
+    )
+    return candidate_grid(_columns(left), _columns(right), constraints)
+
+
+def candidates_reference(
+    left: ImageSegments, right: ImageSegments, rig: StereoRig, options: MatchOptions
+) -> Candidates:
     """The (left, right) pairs that pass the matching constraints (section 3.1; the module
-    docstring), sorted by left, then right index (``k`` rows, possibly zero).
+    docstring), sorted by left, then right index (``k`` rows, possibly zero): the readable
+    reference of the compiled candidate grid, which the matching runs.
 
     Every constraint is evaluated on the whole (nL, nR) grid of pairs, and the pairs are gathered
     at the end.

@@ -18,7 +18,7 @@ from modeling.disparity_histograms import (
     histogram_inputs,
     region_histograms,
 )
-from modeling.matching import MatchOptions, match_candidates
+from modeling.matching import MatchOptions, candidates_reference, match_candidates
 from modeling.rig import StereoRig
 from modeling.segments import extract_segment_pair
 from tests.modeling.synth import render_pair
@@ -94,6 +94,33 @@ def test_decide_equals_reference_on_rendered_pairs(seed: int) -> None:
         _assert_same(got, decide_matches_reference(hist, cand, inputs, rule))
         kept += got.sel.size
     assert kept > 0  # the pairs do exercise the rule
+
+
+GRID_OPTION_SETS: list[dict[str, Any]] = [
+    *OPTION_SETS,
+    {"allow_opposite": False},
+    {"min_overlap_px": 40.0, "min_overlap_frac": 0.9},
+    {"max_angle_diff_deg": 0.5, "agree_px": 0.5},
+]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_candidate_grid_equals_reference_on_rendered_pairs(seed: int) -> None:
+    sl, sr = extract_segment_pair(*_rendered_pair(seed))
+    found = 0
+    for left, right in ((sl, sr), (sr, sl)):  # swapped: mostly negative disparities
+        for overrides in GRID_OPTION_SETS:
+            opts = MatchOptions(**overrides)
+            got = match_candidates(left, right, RIG, opts)
+            want = candidates_reference(left, right, RIG, opts)
+            np.testing.assert_array_equal(got.left_index, want.li)
+            np.testing.assert_array_equal(got.right_index, want.rj)
+            np.testing.assert_array_equal(got.rows_px, want.rows)
+            np.testing.assert_array_equal(got.overlap_px, want.overlap)
+            np.testing.assert_array_equal(got.disparity_px, want.disparity)
+            np.testing.assert_array_equal(got.opposite_polarity, want.opposite)
+            found += len(got)
+    assert found > 0
 
 
 def _random_candidates(rng: np.random.Generator, n_left: int, n_right: int, k: int) -> Candidates:
