@@ -10,7 +10,8 @@ points by least squares, as in section 3.2 of Miura (ICRA-94). The row-by-row se
 compiled loop (``modeling._compiled.edge``, Numba; a block of ``2 B + 1`` pixels around the LSD
 line serves the gradient, the peak search and the grey levels on both sides) whose readable NumPy
 formulation is :func:`modeling.edge_points.edge_sums_reference`; the fit of each segment's line
-from its sums is :func:`_least_squares_lines`.
+from its sums is compiled too (``segment_fits``), its reference
+:func:`least_squares_lines_reference`.
 
 Uncertainty model (section 3.2, "quantization error"). Each edge point's column is taken as
 ``u_i ~ N(a + b v_i, s^2)`` independently, where ``s^2`` is the residual variance of the fit, but at
@@ -54,11 +55,25 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._compiled.edge import EdgeSearch, EdgeSums, LinesToFit, edge_sums
+from modeling._compiled.edge import (
+    EdgeSearch,
+    EdgeSums,
+    FitLimits,
+    LinesToFit,
+    SegmentFits,
+    edge_sums,
+    segment_fits,
+)
 from modeling._compiled.worker import worker
 from modeling.validation import FloatArray, positive, with_overrides
 
-__all__ = ["ImageSegments", "SegmentOptions", "extract_segment_pair", "extract_segments"]
+__all__ = [
+    "ImageSegments",
+    "SegmentOptions",
+    "extract_segment_pair",
+    "extract_segments",
+    "least_squares_lines_reference",
+]
 
 IntArray = NDArray[np.int64]
 
@@ -452,7 +467,12 @@ def _fit(
     )
     stack = np.concatenate(images) if n_img > 1 else np.ascontiguousarray(images[0])
     edges = edge_sums(stack, lines, search)
-    fit = _least_squares_lines(edges, lines, opts)
+    limits = FitLimits(
+        sigma_px=float(opts.sigma_px),
+        min_length_px=float(opts.min_length_px),
+        sin_min=opts.sin_min_angle,
+    )
+    fit = _fields_of_fit(segment_fits(edges, lines, limits))
     sel = np.flatnonzero(fit.pop("ok"))
     out = []
     for k in range(n_img):
@@ -472,11 +492,33 @@ def _fit(
     return out
 
 
-def _least_squares_lines(
+def _fields_of_fit(fits: SegmentFits) -> dict[str, np.ndarray]:
+    """The compiled fit's rows (``modeling._compiled.edge.N_FIT``) by ``ImageSegments`` field, as
+    :func:`least_squares_lines_reference` returns them."""
+    f = fits.fit
+    return {
+        "ok": fits.ok,
+        "endpoints": f[:4].T.reshape(-1, 2, 2),
+        "u_center": f[4],
+        "v_center": f[5],
+        "slope": f[6],
+        "point_var": f[7],
+        "n_points": f[8].astype(np.int64),
+        "s_vv": f[9],
+        "contrast": f[10],
+        "grey_left": f[11],
+        "grey_right": f[12],
+        "grey_left_near": f[13],
+        "grey_right_near": f[14],
+    }
+
+
+def least_squares_lines_reference(
     edges: EdgeSums, lines: LinesToFit, opts: SegmentOptions
 ) -> dict[str, np.ndarray]:
     """The least-squares line ``u = u_c + slope (v - v_c)`` of each line's edge points from their
-    sums (section 3.2), with its variances and mean grey levels.
+    sums (section 3.2), with its variances and mean grey levels: the readable reference of the
+    compiled :func:`modeling._compiled.edge.segment_fits` that the fit runs.
 
     Returns:
         The ``ImageSegments`` fields ``endpoints`` (m, 2, 2), ``u_center``, ``v_center``,

@@ -12,8 +12,16 @@ import math
 import numpy as np
 import pytest
 
-from modeling._compiled.edge import EdgeSearch, EdgeSums, LinesToFit, edge_sums
+from modeling._compiled.edge import (
+    EdgeSearch,
+    EdgeSums,
+    FitLimits,
+    LinesToFit,
+    edge_sums,
+    segment_fits,
+)
 from modeling.edge_points import edge_sums_reference
+from modeling.segments import SegmentOptions, least_squares_lines_reference
 
 H, W = 48, 64
 
@@ -92,3 +100,33 @@ def test_edge_sums_locate_a_step_edge() -> None:
         assert got.first_row[0] == 5 and got.last_row[0] == 20
         np.testing.assert_allclose(sum_u / n + 30.4, 29.5, atol=1e-6)  # u relative to the line
         np.testing.assert_allclose(got.sums[0, 7:9] / n, [50.0, 150.0])  # far grey levels
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_segment_fits_equal_reference(seed: int) -> None:
+    rng = np.random.default_rng(100 + seed)
+    search = EdgeSearch(
+        height=H, search_px=3, side_px=3, near_px=1.5, half_block=6, min_gradient=5.0
+    )
+    stack, lines = _images(rng), _lines(rng, int(rng.integers(1, 12)))
+    edges = edge_sums(stack, lines, search)
+    opts = SegmentOptions(
+        sigma_px=float(rng.choice([0.1, 0.3, 1.0])),
+        min_length_px=float(rng.choice([2.0, 5.0, 12.0])),
+        min_angle_deg=float(rng.choice([20.0, 45.0, 70.0])),
+    )
+    limits = FitLimits(
+        sigma_px=float(opts.sigma_px),
+        min_length_px=float(opts.min_length_px),
+        sin_min=opts.sin_min_angle,
+    )
+    got = segment_fits(edges, lines, limits)
+    want = least_squares_lines_reference(edges, lines, opts)
+    f = got.fit
+    np.testing.assert_array_equal(got.ok, want["ok"])
+    np.testing.assert_array_equal(f[:4].T.reshape(-1, 2, 2), want["endpoints"])
+    rows = ["u_center", "v_center", "slope", "point_var", "n_points", "s_vv", "contrast"]
+    rows += ["grey_left", "grey_right", "grey_left_near", "grey_right_near"]
+    for k, name in enumerate(rows, start=4):
+        np.testing.assert_array_equal(f[k], want[name].astype(np.float64), err_msg=name)
+    assert f.shape == (15, lines.x0.size)
