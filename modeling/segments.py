@@ -64,8 +64,8 @@ from modeling._compiled.edge import (
     edge_sums,
     segment_fits,
 )
-from modeling._compiled.worker import worker
 from modeling.validation import FloatArray, positive, with_overrides
+from modeling.worker import worker
 
 __all__ = [
     "ImageSegments",
