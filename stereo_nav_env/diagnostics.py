@@ -47,6 +47,7 @@ from numpy.typing import NDArray
 
 from modeling.faces import FACE_SOURCE
 from modeling.geometry import wrap_angle
+from modeling.jit import compiled_on_first_call
 from modeling.model import EnvironmentModel
 from stereo_nav_env.scenes import Scene
 
@@ -114,12 +115,27 @@ def normalised_outline_errors(points: FloatArray, cov: FloatArray, edges: FloatA
 
     ``z = |e| / sqrt(n^T C n)``, ``e`` from the nearest point of any edge to the point,
     ``n = e / |e|`` (0 where the point lies on an edge). NaN for every point if there is no edge.
+    A compiled loop (0.1-0.3 ms a step with the model's outlines) equal to
+    :func:`normalised_outline_errors_reference`, the same in NumPy.
     """
     n = points.shape[0]
     if n == 0:
         return np.zeros(0)
     if edges.shape[0] == 0:
         return np.full(n, np.nan)
+    out: FloatArray = _outline_errors(
+        np.ascontiguousarray(points, dtype=np.float64),
+        np.ascontiguousarray(cov, dtype=np.float64),
+        np.ascontiguousarray(edges, dtype=np.float64),
+    )
+    return out
+
+
+def normalised_outline_errors_reference(
+    points: FloatArray, cov: FloatArray, edges: FloatArray
+) -> FloatArray:
+    """:func:`normalised_outline_errors` in NumPy, for at least one point and one edge."""
+    n = points.shape[0]
     ax, ay = edges[:, 0, 0], edges[:, 0, 1]
     bx, by = edges[:, 1, 0] - ax, edges[:, 1, 1] - ay
     inv_l2 = 1.0 / np.maximum(bx * bx + by * by, 1e-18)
@@ -139,6 +155,37 @@ def normalised_outline_errors(points: FloatArray, cov: FloatArray, edges: FloatA
         cov[:, 1, 0] * ux + cov[:, 1, 1] * uy
     )
     return np.where(on_edge, 0.0, length / np.sqrt(np.maximum(var, 1e-18)))
+
+
+@compiled_on_first_call
+def _outline_errors(points: FloatArray, cov: FloatArray, edges: FloatArray) -> FloatArray:
+    """:func:`normalised_outline_errors` for at least one point and one edge (one pass)."""
+    n = points.shape[0]
+    out = np.empty(n)
+    for k in range(n):
+        best_d2 = np.inf
+        best_x = 0.0
+        best_y = 0.0
+        for e in range(edges.shape[0]):
+            ax, ay = edges[e, 0, 0], edges[e, 0, 1]
+            bx, by = edges[e, 1, 0] - ax, edges[e, 1, 1] - ay
+            inv_l2 = 1.0 / max(bx * bx + by * by, 1e-18)
+            px, py = points[k, 0] - ax, points[k, 1] - ay
+            t = min(max((px * bx + py * by) * inv_l2, 0.0), 1.0)
+            ex, ey = px - t * bx, py - t * by  # from the nearest point on the edge to the point
+            d2 = ex * ex + ey * ey
+            if d2 < best_d2:
+                best_d2, best_x, best_y = d2, ex, ey
+        length = np.hypot(best_x, best_y)
+        if length > 1e-12:
+            ux, uy = best_x / length, best_y / length
+            var = ux * (cov[k, 0, 0] * ux + cov[k, 0, 1] * uy) + uy * (
+                cov[k, 1, 0] * ux + cov[k, 1, 1] * uy
+            )
+            out[k] = length / np.sqrt(max(var, 1e-18))
+        else:
+            out[k] = 0.0
+    return out
 
 
 def _outline_figures(model: EnvironmentModel, truth: GroundTruth) -> dict[str, float]:

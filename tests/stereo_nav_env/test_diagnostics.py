@@ -14,6 +14,7 @@ from stereo_nav_env.diagnostics import (
     GroundTruth,
     model_diagnostics,
     normalised_outline_errors,
+    normalised_outline_errors_reference,
 )
 from stereo_nav_env.scenes import Obstacle, Scene, make_obstacle, oriented_rect
 
@@ -114,3 +115,17 @@ def test_an_empty_observation_has_only_counts() -> None:
         "situations": float(len(build_model(FloorObservation(), 0.5).situations)),
         "residual_probability": 0.0,
     }
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_outline_error_loop_equals_its_numpy_reference(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    n, e = int(rng.integers(1, 40)), int(rng.integers(1, 25))
+    pts = rng.uniform(-3.0, 3.0, (n, 2))
+    a = rng.uniform(0.01, 0.3, (n, 2, 2))
+    cov = a @ np.swapaxes(a, 1, 2) + 1e-6 * np.eye(2)
+    edges = rng.uniform(-3.0, 3.0, (e, 2, 2))
+    edges[0] = [pts[0], pts[0] + 1.0]  # a point exactly on an edge
+    got = normalised_outline_errors(pts, cov, edges)
+    np.testing.assert_array_equal(got, normalised_outline_errors_reference(pts, cov, edges))
+    assert got[0] == 0.0
