@@ -67,11 +67,16 @@ class ModelOptions:
     min_isolated_length_m: float = 0.1
     outline_buffer_m: float = 0.02
 
-    def __post_init__(self) -> None:
-        _check_eps(self.eps)
-        integer(self.max_situations, "max_situations", low=1)
-        positive(self.min_isolated_length_m, "min_isolated_length_m", allow_zero=True)
-        positive(self.outline_buffer_m, "outline_buffer_m")
+    def __post_init__(self) -> None:  # checked once here, stored as plain Python numbers
+        object.__setattr__(self, "eps", _check_eps(self.eps))
+        object.__setattr__(
+            self, "max_situations", integer(self.max_situations, "max_situations", low=1)
+        )
+        length = positive(self.min_isolated_length_m, "min_isolated_length_m", allow_zero=True)
+        object.__setattr__(self, "min_isolated_length_m", length)
+        object.__setattr__(
+            self, "outline_buffer_m", positive(self.outline_buffer_m, "outline_buffer_m")
+        )
 
 
 def build_model(
@@ -100,10 +105,8 @@ def build_model(
             f"observation must be a FloorObservation, got {type(observation).__name__}"
         )
     width = positive(robot_width_m, "robot_width_m")
-    opts = with_overrides(options, ModelOptions, overrides)
-    eps = _check_eps(opts.eps)
-    min_len = positive(opts.min_isolated_length_m, "min_isolated_length_m", allow_zero=True)
-    buffer_m = positive(opts.outline_buffer_m, "outline_buffer_m")
+    opts = with_overrides(options, ModelOptions, overrides)  # validated by ModelOptions
+    eps, min_len, buffer_m = opts.eps, opts.min_isolated_length_m, opts.outline_buffer_m
 
     # Section 4.1: items, their relations, isolated short segments.
     items = items_of(observation)
@@ -124,7 +127,7 @@ def build_model(
         rel,
         units,
         elimination,
-        max_situations=int(opts.max_situations),
+        max_situations=opts.max_situations,
         robot_width_m=width,
         outline_buffer_m=buffer_m,
     )
