@@ -49,6 +49,11 @@ class FloorSegment:
         return float(np.linalg.norm(self.endpoints[1] - self.endpoints[0]))
 
     @property
+    def length_3d_m(self) -> float:
+        """Length of the 3D segment, metres: the floor length and the height extent."""
+        return math.hypot(self.length_m, float(self.height_m[1] - self.height_m[0]))
+
+    @property
     def midpoint(self) -> FloatArray:
         """(2,) mean of the two endpoint means."""
         out: FloatArray = self.endpoints.mean(axis=0)

@@ -93,8 +93,8 @@ def test_bad_model_arguments() -> None:
         build_model(obs, 0.5, eps=0.6)
     with pytest.raises(ValueError, match="max_situations"):
         build_model(obs, 0.5, max_situations=0)
-    with pytest.raises(ValueError, match="min_isolated_length_m"):
-        build_model(obs, 0.5, min_isolated_length_m=-1.0)
+    with pytest.raises(ValueError, match="min_isolated_3d_length_m"):
+        build_model(obs, 0.5, min_isolated_3d_length_m=-1.0)
     with pytest.raises(ValueError, match="observation"):
         build_model([good_seg()], 0.5)  # type: ignore[arg-type]
 
