@@ -12,12 +12,20 @@ those with one effect, and the independent groups.
   causes (:class:`Effect`): a merge of two obstacles it is impassable to both (space becomes
   impassable), a new undecided relation between an obstacle it joins and another one where the
   space was passable, or, for a free-standing candidate, a new undecided space near the obstacles
-  it is undecided to. Changes of width within an already undecided space are neglected, as in
-  the paper.
+  it is undecided to; and a *new obstacle*: candidates impassable to no obstacle of the base model
+  are an obstacle of their own, which paths must go around. Changes of width within an already
+  undecided space are neglected, as in the paper. The "none" choice (``p_none``) has no effect.
 * Fig. 8: a unit whose every choice has the same effect is eliminated. If that common effect is
-  not empty (e.g. every position joins obstacles A and C), its most probable candidate is added
-  to every situation, so the obstacles are merged; otherwise it is dropped. This repeats until no
-  unit is eliminated.
+  not empty, its most probable candidate is added to every situation: when every position joins
+  obstacles A and C, the obstacles are merged; when every position is a free-standing object, the
+  object is kept, at its most probable position. The paper eliminates a segment whose ambiguity
+  "does not change the topological structure of possible paths" and neglects the cost changes of
+  its positions (segment p of Fig. 8): an object present in every choice changes that structure
+  (it is a hole of the free space in every situation), where it stands changes only costs, so it
+  is kept once rather than as a unit of situations that differ only in cost. A unit with a "none"
+  choice has a choice without the object, so its choices differ and it stays. Otherwise (the
+  common effect is empty: every position only extends one obstacle) the unit is dropped. This
+  repeats until no unit is eliminated.
 * Fig. 9: the remaining units are split into independent groups: two units are in one group when
   they affect a common space (obstacle pair) or when any of their candidates are not passable to
   each other (connected components).
@@ -66,9 +74,11 @@ class Effect(enum.Enum):
     MERGE = "merge"  # two obstacles are joined: the space between them becomes impassable
     UNDECIDED = "undecided"  # a space that was passable becomes undecided
     NEAR = "near"  # a free-standing candidate makes an undecided space near one obstacle
+    NEW = "new"  # candidates impassable to no obstacle of the base model: new obstacles
 
 
-Change = tuple[Effect, int, int]  # the effect and the obstacle pair (labels ``a <= b``)
+Change = tuple[Effect, int, int]  # the effect and the obstacle pair (labels ``a <= b``); for
+# ``Effect.NEW``: ``(NEW, k, k)``, k the number of new obstacles
 Signature = frozenset[Change]
 
 
@@ -325,6 +335,9 @@ def _signature(
                 undecided.add(lab)
     undecided -= joined
     changes: set[Change] = set()
+    new = _new_obstacles(items, adjacency, active)
+    if new:
+        changes.add((Effect.NEW, new, new))
     js = sorted(joined)
     for x, a in enumerate(js):
         for b in js[x + 1 :]:
@@ -346,9 +359,31 @@ def _signature(
     return frozenset(changes)
 
 
+def _new_obstacles(items: tuple[int, ...], adjacency: Adjacency, active: np.ndarray) -> int:
+    """How many new obstacles ``items`` make: the components (impassable relations among them)
+    none of whose items is impassable to an active item."""
+    if not items:
+        return 0
+    pos = {it: k for k, it in enumerate(items)}
+    ii: list[int] = []
+    jj: list[int] = []
+    anchored: list[int] = []
+    for it in items:
+        for other, kind in adjacency.get(it, {}).items():
+            if kind != _IMP:
+                continue
+            if active[other]:
+                anchored.append(pos[it])
+            elif other in pos:
+                ii.append(pos[it])
+                jj.append(pos[other])
+    labels = components(len(items), np.asarray(ii, np.int64), np.asarray(jj, np.int64))
+    return len(set(labels.tolist()) - set(labels[anchored].tolist()))
+
+
 def _spaces(signature: Signature) -> set[tuple[int, int]]:
-    """The obstacle pairs (spaces) a signature's changes concern."""
-    return {(a, b) for _, a, b in signature}
+    """The obstacle pairs (spaces) a signature's changes concern (a new obstacle is no space)."""
+    return {(a, b) for e, a, b in signature if e is not Effect.NEW}
 
 
 def independent_groups(

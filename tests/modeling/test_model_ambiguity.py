@@ -37,11 +37,19 @@ def test_signature_tags_merges_new_undecided_spaces_and_near_spaces() -> None:
     adjacency = {5: {0: imp, 1: imp, 2: und}}
     got = _signature((5,), adjacency, labels, {(1, 2)}, active)
     assert got == {(Effect.MERGE, 0, 1), (Effect.UNDECIDED, 0, 2)}
-    # a free-standing candidate undecided to one obstacle: a new space near it
-    assert _signature((5,), {5: {3: und}}, labels, set(), active) == {(Effect.NEAR, 3, 3)}
-    # an inactive neighbour has no effect
+    # a free-standing candidate undecided to one obstacle: a new space near it, and a new obstacle
+    new1 = (Effect.NEW, 1, 1)
+    assert _signature((5,), {5: {3: und}}, labels, set(), active) == {(Effect.NEAR, 3, 3), new1}
+    # an inactive neighbour makes no space, but the candidate is still a new obstacle
     active[3] = False
-    assert _signature((5,), {5: {3: und}}, labels, set(), active) == frozenset()
+    assert _signature((5,), {5: {3: und}}, labels, set(), active) == {new1}
+    # two candidates impassable to each other, to nothing active: one new obstacle; apart: two
+    active[4] = active[5] = False  # candidates are not in the base model
+    assert _signature((4, 5), {4: {5: imp}, 5: {4: imp}}, labels, set(), active) == {new1}
+    assert _signature((4, 5), {}, labels, set(), active) == {(Effect.NEW, 2, 2)}
+    # a candidate joined to an active obstacle makes none; "none" (no item) has no effect
+    assert _signature((5,), {5: {0: imp}}, labels, set(), active) == frozenset()
+    assert _signature((), {}, labels, set(), active) == frozenset()
 
 
 def test_a_candidate_with_no_obstacle_mass_gives_a_none_situation() -> None:

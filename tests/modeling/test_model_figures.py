@@ -102,17 +102,49 @@ def test_fig8_common_effect_merges_obstacles_and_eliminates_the_segment() -> Non
     A = box(0, 0, 1, 1)
     C = box(2.2, 0, 3.2, 1)  # 1.2 m gap: passable without the ambiguous segments
     q = amb([seg((1.0, 0.5), (2.2, 0.5)), seg((1.0, 0.8), (2.2, 0.8))], [0.6, 0.4])
-    # p: one position extends A, the other is a long isolated segment: no effect either way.
+    # p: one position extends A, the other is a long free-standing segment: an obstacle in one
+    # choice only, a change of the topology of paths (a new obstacle to go around): p stays.
     p = amb([seg((-1.5, 0.5), (0.0, 0.5)), seg((-6.0, 4.0), (-4.5, 4.0))], [0.7, 0.3])
     m = build_model(observe(A + C, [q, p]), W)
-    assert m.eliminated_ambiguous == (0, 1)
+    assert m.eliminated_ambiguous == (0,)
     assert m.merged_ambiguous == {0: 0}
-    assert m.units == () and m.groups == ()
+    assert m.units == ((1,),) and m.groups == ((1,),)
+    assert [s.probability for s in m.situations] == pytest.approx([0.7, 0.3])
+    extended, apart = m.situations
+    assert extended.choice == {1: 0} and apart.choice == {1: 1}
+    assert len(extended.obstacles) == 1 and len(apart.obstacles) == 2
+    for s in m.situations:  # q's most probable position closes A-C in both
+        assert s.obstacles[0].segments == tuple(range(8))
+        assert (0, 0) in s.obstacles[0].candidates
+    # p': both positions extend A (no change of the paths): eliminated, dropped
+    p2 = amb([seg((-1.5, 0.5), (0.0, 0.5)), seg((-1.5, 0.2), (0.0, 0.2))], [0.7, 0.3])
+    m2 = build_model(observe(A + C, [q, p2]), W)
+    assert m2.eliminated_ambiguous == (0, 1) and m2.merged_ambiguous == {0: 0}
+    (s2,) = m2.situations
+    assert s2.obstacles[0].candidates == ((0, 0),)
+
+
+def test_an_object_seen_only_through_ambiguous_segments_stays_in_every_situation() -> None:
+    # Issue 16b: a free-standing object (two faces moving together, 2 m or 3.5 m ahead, nowhere
+    # near the wall) is present in every choice. It changes the topology of paths and must not
+    # vanish: every position is a new obstacle, so it is merged at its most probable position.
+    wall = [seg((-4.0, 8.0), (4.0, 8.0))]
+    near = [seg((-0.3, 2.0), (0.3, 2.0)), seg((0.3, 2.0), (0.3, 2.4))]
+    far = [seg((-0.3, 3.5), (0.3, 3.5)), seg((0.3, 3.5), (0.3, 3.9))]
+    ambs = [amb([near[k], far[k]], [0.7, 0.3]) for k in range(2)]
+    m = build_model(observe(wall, ambs), W)
+    assert m.merged_ambiguous == {0: 0, 1: 0} and m.units == ()
     (s,) = m.situations
     assert s.probability == 1.0
-    assert len(s.obstacles) == 1
-    assert s.obstacles[0].segments == tuple(range(8))
-    assert s.obstacles[0].candidates == ((0, 0),)
+    assert sorted(o.candidates for o in s.obstacles) == [(), ((0, 0), (1, 0))]
+    obj = next(o for o in s.obstacles if o.candidates)
+    assert shapely.Polygon(obj.polygon).buffer(0.05).contains(shapely.Point(0.0, 2.1))
+    # with a "none" mass the object may be absent: its choices differ, it stays a unit
+    ambs_none = [amb([near[k], far[k]], [0.5, 0.3]) for k in range(2)]
+    m_none = build_model(observe(wall, ambs_none), W)
+    assert m_none.units == ((0, 1),) and m_none.merged_ambiguous == {}
+    assert [len(s.obstacles) for s in m_none.situations] == [2, 2, 1]
+    assert [s.probability for s in m_none.situations] == pytest.approx([0.5, 0.3, 0.2])
 
 
 def test_fig9_independent_groups() -> None:

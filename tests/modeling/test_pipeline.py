@@ -48,7 +48,12 @@ def test_two_bars_far_apart_give_two_obstacles_where_they_stand() -> None:
 def test_bars_closer_than_the_robot_give_one_obstacle() -> None:
     left, right = bars(0.3)
     m = model_from_stereo(left, right, RIG, POSE, W)
-    assert [len(s.obstacles) for s in m.situations] == [1] * len(m.situations)
+    # In every situation the boards' segments are one obstacle; any other obstacle is a
+    # free-standing position of an ambiguous segment (a possible object in that situation only).
+    for s in m.situations:
+        (boards,) = [o for o in s.obstacles if o.segments]
+        assert boards.segments == m.kept_segments
+        assert all(o.candidates and not o.segments for o in s.obstacles if o is not boards)
 
 
 def test_options_reach_their_stage() -> None:
