@@ -11,7 +11,8 @@ probabilities, each made of obstacles and critical regions, plus the occluded ar
 3. The k most probable situations (Eq. 2), each partitioned into obstacles (components of
    impassable relations, convex-hull polygons: :mod:`modeling.obstacles`), critical regions and
    passages: :mod:`modeling.situations`.
-4. The occluded area behind the base model's segments: :mod:`modeling.occlusion`.
+4. The occluded area behind the obstacles of the most probable situation (their skeletons):
+   :mod:`modeling.occlusion`.
 
 The records are in :mod:`modeling.records` (re-exported here). Frames: world, metres;
 covariances m^2; probabilities in [0, 1].
@@ -33,7 +34,7 @@ from modeling.ambiguity import (
 from modeling.gaps import _check_eps
 from modeling.items import isolated_short_segments, item_relations, items_of
 from modeling.observation import FloorObservation
-from modeling.occlusion import occluded_area, polygons_of
+from modeling.occlusion import occluded_area, occluders_of, polygons_of
 from modeling.records import CriticalRegion, EnvironmentModel, Obstacle, Passage, Situation
 from modeling.situations import enumerate_situations
 from modeling.validation import integer, positive, with_overrides
@@ -136,8 +137,8 @@ def build_model(
         robot_width_m=width,
         outline_buffer_m=buffer_m,
     )
-    # Occlusion: behind the base model's segments (kept ones and merged candidates).
-    occluded = occluded_area(observation, items.ends[elimination.active])
+    # Occlusion: behind the obstacles of the most probable situation.
+    occluded = occluded_area(observation, occluders_of(situations[0]))
     return EnvironmentModel(
         situations=tuple(situations),
         residual_probability=residual,

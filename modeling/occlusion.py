@@ -1,10 +1,19 @@
-"""Occlusion (paper section 4.1): the floor hidden behind the observed segments.
+"""Occlusion (paper section 4.1): the floor hidden behind the obstacles.
 
-The occluded area is what lies behind the kept segments (and merged candidates) seen from the
-viewpoint, within the field-of-view wedge of radius ``max_range_m``: an angular sweep of rays
-finds the nearest segment along each ray (:func:`nearest_hits`), and each run of consecutive
-blocked rays gives one shadow polygon (:func:`shadow_rings`). It is computed once per model and
-treated as free space by the planners.
+"The area behind the obstacles is determined as an occluded area": the occluders are the
+obstacles of the model's most probable situation (:func:`occluders_of`), each drawn as its
+skeleton, its segments and the impassable links that join them (``Obstacle.lines``): an obstacle
+of vertical edges only (floor points, a box seen by its corners) or of a candidate chosen in that
+situation occludes what lies behind it, not only one of long unambiguous segments. The skeleton,
+not the convex hull (``Obstacle.polygon``): for a non-convex cluster (a room corner seen from
+inside) the hull's closing edge crosses visible floor. One situation, not the area occluded in
+every situation or a weighted one: the most probable one is what the planners and the raster use
+first, and one sweep keeps the cost of a model flat in the number of situations.
+
+Within the field-of-view wedge of radius ``max_range_m``, an angular sweep of rays finds the
+nearest occluder along each ray (:func:`nearest_hits`), and each run of consecutive blocked rays
+gives one shadow polygon (:func:`shadow_rings`). It is computed once per model and treated as
+free space by the planners.
 
 Frames: world, metres; angles radians.
 """
@@ -19,6 +28,7 @@ import shapely
 
 from modeling.geometry import wrap_angle
 from modeling.observation import FloorObservation
+from modeling.records import Situation
 from modeling.validation import FloatArray
 
 __all__ = [
@@ -27,6 +37,7 @@ __all__ = [
     "Rings",
     "nearest_hits",
     "occluded_area",
+    "occluders_of",
     "polygons_of",
     "shadow_rings",
 ]
@@ -133,6 +144,13 @@ def occluded_area(obs: FloorObservation, ends: FloatArray, n_rays: int = 361) ->
         shapely.linearrings(rings.vertices, indices=np.repeat(np.arange(n_rings), rings.sizes))
     )
     return polys[0] if n_rings == 1 else shapely.multipolygons(polys)
+
+
+def occluders_of(situation: Situation) -> FloatArray:
+    """(n, 2, 2) the occluding lines of ``situation``: its obstacles' skeletons (segments, then
+    impassable links), world frame, metres."""
+    lines = [o.lines for o in situation.obstacles]
+    return np.concatenate(lines) if lines else np.zeros((0, 2, 2))
 
 
 def nearest_hits(rays: RaysAndSegments) -> FloatArray:

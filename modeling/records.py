@@ -156,7 +156,8 @@ class EnvironmentModel:
         situations: Sorted by probability, descending.
         residual_probability: Probability mass of the situations left out (``max_situations``);
             ``sum(s.probability) + residual_probability == 1``.
-        occluded: Occluded polygons, each (m, 2) exterior ring, world frame, metres.
+        occluded: Occluded polygons, each (m, 2) exterior ring, world frame, metres: the floor
+            behind the obstacles of the most probable situation (see :mod:`modeling.occlusion`).
         observation: The input observation.
         robot_width_m: Robot width, metres.
         eps: Classification tolerance.

@@ -1,10 +1,13 @@
-"""Occlusion (section 4.1): the ray sweep's nearest hits and shadow rings."""
+"""Occlusion (section 4.1): the ray sweep's nearest hits and shadow rings; what occludes."""
 
 from __future__ import annotations
 
 import numpy as np
 import shapely
 
+from modeling.faces import FACE_SOURCE
+from modeling.model import build_model
+from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
 from modeling.occlusion import RaysAndSegments, RaySweep, nearest_hits, shadow_rings
 
 
@@ -40,3 +43,64 @@ def test_shadow_rings_are_one_ring_per_run_of_blocked_rays() -> None:
     np.testing.assert_allclose(rings.vertices[0], 2.0 * u[1])
     np.testing.assert_allclose(rings.vertices[2:6], 5.0 * u[[3, 2, 1, 0]])
     np.testing.assert_allclose(rings.vertices[6:], [1.0 * u[5], 5.0 * u[5], 5.0 * u[4]])
+
+
+def _seg(a, b, sigma: float = 0.01, source: int = -1) -> FloorSegment:
+    return FloorSegment(
+        endpoints=np.array([a, b], dtype=float),
+        cov=np.stack([np.eye(2) * sigma**2] * 2),
+        source=source,
+    )
+
+
+def _point(x: float, y: float) -> FloorSegment:
+    """A vertical edge: both ends at one floor point, 0.05 to 0.75 m high."""
+    s = _seg((x, y), (x, y))
+    return FloorSegment(endpoints=s.endpoints, cov=s.cov, height_m=np.array([0.75, 0.05]))
+
+
+def _observe(segments, ambiguous=()) -> FloorObservation:
+    return FloorObservation(
+        segments=tuple(segments), ambiguous=tuple(ambiguous), viewpoint=np.array([0.0, 0.0, 0.0])
+    )
+
+
+def test_occlusion_is_behind_the_obstacles_of_the_most_probable_situation() -> None:
+    # Issue 16d: occlusion was computed behind the base model's mean segments only. The
+    # viewpoint is at the origin looking along +x; each case stands 3 m ahead.
+    behind, beside = shapely.Point(4.5, 0.0), shapely.Point(4.5, 2.0)
+    # a box seen by its four vertical edges only (floor points 0.4 m apart, joined impassably):
+    # no segment has a length, but the obstacle hides the floor behind it
+    corners = [_point(3.0, -0.2), _point(3.0, 0.2), _point(3.4, -0.2), _point(3.4, 0.2)]
+    m = build_model(_observe(corners), 0.5)
+    (s,) = m.situations
+    assert len(s.obstacles) == 1
+    assert m.occluded_geometry.contains(behind) and not m.occluded_geometry.contains(beside)
+    # an obstacle that is only the chosen candidate of a remaining ambiguous segment (0.7):
+    # the floor behind it is occluded (the 0.3 candidate extends the wall)
+    cand = AmbiguousSegment(
+        candidates=(_seg((3.0, -0.4), (3.0, 0.4)), _seg((5.9, 2.5), (5.9, 2.9))),
+        probabilities=(0.7, 0.3),
+    )
+    wall = [_seg((6.0, -3.0), (6.0, 3.0))]
+    m2 = build_model(_observe(wall, [cand]), 0.5)
+    assert m2.units == ((0,),) and m2.situations[0].choice == {0: 0}
+    assert m2.occluded_geometry.contains(behind)
+    assert not m2.occluded_geometry.contains(shapely.Point(4.5, 1.5))  # visible up to the wall
+    # an obstacle made only of a face-closed outline (two vertical edges and their face)
+    face = [_point(3.0, -0.4), _point(3.0, 0.4), _seg((3.0, -0.4), (3.0, 0.4), source=FACE_SOURCE)]
+    m3 = build_model(_observe(face), 0.5)
+    assert m3.occluded_geometry.contains(behind) and not m3.occluded_geometry.contains(beside)
+
+
+def test_a_corner_seen_from_inside_hides_only_what_is_behind_its_walls() -> None:
+    # an L of walls open toward the viewpoint: the floor inside the corner is seen, though the
+    # obstacle's convex hull covers it
+    walls = [_seg((4.0, -2.0), (4.0, 2.0)), _seg((4.0, 2.0), (1.5, 2.0))]
+    m = build_model(_observe(walls), 0.5)
+    (s,) = m.situations
+    (corner,) = s.obstacles
+    inside = shapely.Point(3.5, 1.5)
+    assert shapely.Polygon(corner.polygon).contains(inside)
+    assert not m.occluded_geometry.contains(inside)
+    assert m.occluded_geometry.contains(shapely.Point(5.0, 0.0))
