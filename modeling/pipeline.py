@@ -101,7 +101,7 @@ def stereo_to_floor(
         on_stage: Called with ``"segments"``, ``"matching"`` and ``"triangulation"`` (faces
             included) as each stage ends, e.g. to time them.
         **kw: Fields of the stage options (:data:`STEREO_STAGES`): ``SegmentOptions`` (e.g.
-            ``sigma_px``), ``MatchOptions`` (e.g. ``rel_peak``), ``TriangulationOptions``
+            ``bias_sigma_px``), ``MatchOptions`` (e.g. ``rel_peak``), ``TriangulationOptions``
             (``min_height_m``, ``max_height_m``) and ``FaceOptions``.
 
     Returns:
@@ -124,7 +124,7 @@ def stereo_to_floor(
     if not isinstance(close_faces, bool):
         raise ValueError(f"close_faces must be a bool, got {close_faces!r}")
     stage_done = on_stage if on_stage is not None else _no_op
-    segs_l, segs_r = extract_segment_pair(gl, gr, opts["segments"])
+    segs_l, segs_r = extract_segment_pair(gl, gr, opts["segments"], rig=rig)
     stage_done("segments")
     matches = match_segments(segs_l, segs_r, rig, opts["matching"])
     stage_done("matching")
@@ -159,7 +159,7 @@ def model_from_stereo(
         rig: The stereo rig.
         head_pose: Pose of the left optical centre, world frame.
         robot_width_m: Robot width (diameter), metres, > 0.
-        **kw: Options of the stereo stages (those of :func:`stereo_to_floor`, e.g. ``sigma_px``,
+        **kw: Options of the stereo stages (those of :func:`stereo_to_floor`, e.g.
             ``rel_peak``, ``min_height_m``, ``close_faces``) and fields of
             :class:`~modeling.model.ModelOptions` (``eps``, ``max_situations``,
             ``min_isolated_3d_length_m``, ``outline_buffer_m``), each passed to its own stage.

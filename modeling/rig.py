@@ -48,7 +48,9 @@ class StereoRig:
             :attr:`principal_point_px`).
         cy_px: Principal point v, pixels; ``None`` means the image centre, as ``cx_px``.
         sigma_px: Nominal standard deviation of one edge point's horizontal position, pixels
-            (quantisation plus noise); used where a least-squares fit has too few points.
+            (quantisation plus noise): the floor of the per-point variance of the segment fit
+            (:mod:`modeling.segments`, which takes it from the rig, its one source), so it
+            drives the endpoint covariances of clean edges, whose fit residual is smaller.
         min_depth_m: Nearest depth the matcher accepts (largest disparity), metres.
         max_depth_m: Farthest depth the matcher accepts (smallest disparity), metres.
     """

@@ -15,9 +15,11 @@ from its sums is compiled too (``segment_fits``), its reference
 
 Uncertainty model (section 3.2, "quantization error"). Each edge point's column is taken as
 ``u_i ~ N(a + b v_i, s^2)`` independently, where ``s^2`` is the residual variance of the fit, but at
-least ``sigma_px^2`` (the nominal per-point sigma of the rig, ``StereoRig.sigma_px``: with few
-points, or a perfectly clean edge, the residual says too little). Least squares then gives the
-variance of the fitted column at any row ``v``::
+least ``sigma_px^2``: the nominal per-point sigma of the rig, ``StereoRig.sigma_px``, its one
+source (the rig is passed to :func:`extract_segments` / :func:`extract_segment_pair`; with few
+points, or a perfectly clean edge, the residual says too little). On a clean edge the floor is
+what holds, so the endpoint standard deviations grow in proportion to ``sigma_px``. Least squares
+then gives the variance of the fitted column at any row ``v``::
 
     var_u(v) = s^2 * (1 / n + (v - v_c)^2 / S_vv) + bias_sigma_px^2
 
@@ -64,6 +66,7 @@ from modeling._compiled.edge import (
     edge_sums,
     segment_fits,
 )
+from modeling.rig import StereoRig
 from modeling.validation import FloatArray, positive, with_overrides
 from modeling.worker import worker
 
@@ -74,6 +77,8 @@ __all__ = [
     "extract_segments",
     "least_squares_lines_reference",
 ]
+
+_DEFAULT_SIGMA_PX = StereoRig().sigma_px  # of the default rig
 
 IntArray = NDArray[np.int64]
 
@@ -258,9 +263,6 @@ class SegmentOptions:
     """The options of :func:`extract_segments` and :func:`extract_segment_pair` (sections 3.1-3.2).
 
     Attributes:
-        sigma_px: Nominal standard deviation of one edge point's column, px; the lower bound of
-            the per-point sigma (used in place of the fit residual when that is smaller). The
-            rig's ``sigma_px``.
         bias_sigma_px: Standard deviation of the column error common to all edge points of a
             segment (sub-pixel quantisation of the edge by the imaging, rectification), px; added
             to the fitted variance. See the module docstring for the default.
@@ -282,7 +284,6 @@ class SegmentOptions:
         ValueError: naming the option that is out of range.
     """
 
-    sigma_px: float = 0.5
     bias_sigma_px: float = 0.1
     min_length_px: float = 12.0
     min_angle_deg: float = 25.0
@@ -294,7 +295,7 @@ class SegmentOptions:
     near_px: float = 1.5
 
     def __post_init__(self) -> None:
-        for name in ("sigma_px", "min_length_px", "lsd_scale"):
+        for name in ("min_length_px", "lsd_scale"):
             positive(getattr(self, name), name)
         positive(self.bias_sigma_px, "bias_sigma_px", allow_zero=True)
         positive(self.min_gradient, "min_gradient", allow_zero=True)
@@ -321,13 +322,19 @@ class SegmentOptions:
 
 
 def extract_segments(
-    gray: NDArray[np.uint8], options: SegmentOptions | None = None, **overrides: Any
+    gray: NDArray[np.uint8],
+    options: SegmentOptions | None = None,
+    *,
+    rig: StereoRig | None = None,
+    **overrides: Any,
 ) -> ImageSegments:
     """Straight segments of a grey image, each with a least-squares horizontal position.
 
     Args:
         gray: (H, W) uint8 image (rectified), at least 8x8 pixels.
         options: The options (defaults: ``SegmentOptions()``).
+        rig: The rig that took the image: its ``sigma_px`` is the per-point sigma's floor
+            (default: ``StereoRig()``).
         **overrides: Fields of ``SegmentOptions`` to replace, e.g. ``min_length_px=10.0``.
 
     Returns:
@@ -339,13 +346,15 @@ def extract_segments(
     """
     img = _check_gray(gray, "gray")
     opts = with_overrides(options, SegmentOptions, overrides)
-    return _fit([img], [_detect(img, opts.lsd_scale)], opts)[0]
+    return _fit([img], [_detect(img, opts.lsd_scale)], opts, _sigma_px(rig))[0]
 
 
 def extract_segment_pair(
     left: NDArray[np.uint8],
     right: NDArray[np.uint8],
     options: SegmentOptions | None = None,
+    *,
+    rig: StereoRig | None = None,
     **overrides: Any,
 ) -> tuple[ImageSegments, ImageSegments]:
     """The segments of both images of a rectified pair: ``extract_segments`` of each, faster.
@@ -359,6 +368,7 @@ def extract_segment_pair(
         left: (H, W) uint8 left image.
         right: (H, W) uint8 right image, the same shape.
         options: The options (defaults: ``SegmentOptions()``).
+        rig: The rig that took the pair (its ``sigma_px``; default ``StereoRig()``).
         **overrides: Fields of ``SegmentOptions`` to replace.
 
     Returns:
@@ -378,8 +388,17 @@ def extract_segment_pair(
     job = worker().submit(_detect, img_r, opts.lsd_scale)
     lines_l = _detect(img_l, opts.lsd_scale)
     lines_r = job.result()
-    segs_l, segs_r = _fit([img_l, img_r], [lines_l, lines_r], opts)
+    segs_l, segs_r = _fit([img_l, img_r], [lines_l, lines_r], opts, _sigma_px(rig))
     return segs_l, segs_r
+
+
+def _sigma_px(rig: StereoRig | None) -> float:
+    """The per-point sigma's floor: ``rig.sigma_px`` (of ``StereoRig()`` when ``rig`` is None)."""
+    if rig is None:
+        return _DEFAULT_SIGMA_PX
+    if not isinstance(rig, StereoRig):
+        raise ValueError(f"rig must be a StereoRig, got {type(rig).__name__}")
+    return float(rig.sigma_px)
 
 
 # ------------------------------------------------------------------ detection and fitting
@@ -438,9 +457,13 @@ def _lines_to_fit(
 
 
 def _fit(
-    images: list[NDArray[np.uint8]], detected: list[FloatArray], opts: SegmentOptions
+    images: list[NDArray[np.uint8]],
+    detected: list[FloatArray],
+    opts: SegmentOptions,
+    sigma_px: float,
 ) -> list[ImageSegments]:
-    """Re-localise and fit the LSD lines of each image (same shapes), all in one pass.
+    """Re-localise and fit the LSD lines of each image (same shapes), all in one pass;
+    ``sigma_px`` (the rig's) is the floor of the per-point sigma.
 
     The images are stacked vertically for the compiled loops; every quantity is computed in each
     image's own rows (pixels past its sides replicate its edge columns), so the result for one
@@ -468,7 +491,7 @@ def _fit(
     stack = np.concatenate(images) if n_img > 1 else np.ascontiguousarray(images[0])
     edges = edge_sums(stack, lines, search)
     limits = FitLimits(
-        sigma_px=float(opts.sigma_px),
+        sigma_px=sigma_px,
         min_length_px=float(opts.min_length_px),
         sin_min=opts.sin_min_angle,
     )
@@ -514,11 +537,12 @@ def _fields_of_fit(fits: SegmentFits) -> dict[str, np.ndarray]:
 
 
 def least_squares_lines_reference(
-    edges: EdgeSums, lines: LinesToFit, opts: SegmentOptions
+    edges: EdgeSums, lines: LinesToFit, limits: FitLimits
 ) -> dict[str, np.ndarray]:
     """The least-squares line ``u = u_c + slope (v - v_c)`` of each line's edge points from their
     sums (section 3.2), with its variances and mean grey levels: the readable reference of the
-    compiled :func:`modeling._compiled.edge.segment_fits` that the fit runs.
+    compiled :func:`modeling._compiled.edge.segment_fits` that the fit runs (the same
+    ``limits``: the per-point sigma's floor, the rig's ``sigma_px``, and the kept segments').
 
     Returns:
         The ``ImageSegments`` fields ``endpoints`` (m, 2, 2), ``u_center``, ``v_center``,
@@ -548,14 +572,14 @@ def least_squares_lines_reference(
     u0 = uc + slope * (v0 - vc)
     u1 = uc + slope * (v1 - vc)
     seg_len = np.hypot(u1 - u0, v1 - v0)
-    ok &= (v1 > v0) & (seg_len >= opts.min_length_px) & ((v1 - v0) >= opts.sin_min_angle * seg_len)
+    ok &= (v1 > v0) & (seg_len >= limits.min_length_px) & ((v1 - v0) >= limits.sin_min * seg_len)
     return {
         "ok": ok,
         "endpoints": np.stack([u0, v0, u1, v1], axis=1).reshape(-1, 2, 2),
         "u_center": uc,
         "v_center": vc,
         "slope": slope,
-        "point_var": np.maximum(rss / np.maximum(n - 2.0, 1.0), opts.sigma_px**2),
+        "point_var": np.maximum(rss / np.maximum(n - 2.0, 1.0), limits.sigma_px**2),
         "n_points": n.astype(np.int64),
         "s_vv": svv,
         "contrast": grey[:, 0],

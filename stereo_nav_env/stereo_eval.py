@@ -309,7 +309,7 @@ def run_stereo(
     te, tm, tt = [], [], []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        sl, sr = extract_segment_pair(gl, gr)
+        sl, sr = extract_segment_pair(gl, gr, rig=rig)
         t1 = time.perf_counter()
         matches = match_segments(sl, sr, rig)
         t2 = time.perf_counter()

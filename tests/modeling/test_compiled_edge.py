@@ -111,17 +111,16 @@ def test_segment_fits_equal_reference(seed: int) -> None:
     stack, lines = _images(rng), _lines(rng, int(rng.integers(1, 12)))
     edges = edge_sums(stack, lines, search)
     opts = SegmentOptions(
-        sigma_px=float(rng.choice([0.1, 0.3, 1.0])),
         min_length_px=float(rng.choice([2.0, 5.0, 12.0])),
         min_angle_deg=float(rng.choice([20.0, 45.0, 70.0])),
     )
     limits = FitLimits(
-        sigma_px=float(opts.sigma_px),
+        sigma_px=float(rng.choice([0.1, 0.3, 1.0])),
         min_length_px=float(opts.min_length_px),
         sin_min=opts.sin_min_angle,
     )
     got = segment_fits(edges, lines, limits)
-    want = least_squares_lines_reference(edges, lines, opts)
+    want = least_squares_lines_reference(edges, lines, limits)
     f = got.fit
     np.testing.assert_array_equal(got.ok, want["ok"])
     np.testing.assert_array_equal(f[:4].T.reshape(-1, 2, 2), want["endpoints"])

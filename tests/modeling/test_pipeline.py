@@ -93,11 +93,15 @@ def test_unknown_and_bad_options_are_value_errors_naming_them() -> None:
 
 
 def test_flat_options_are_routed_by_the_fields_of_each_stage_dataclass() -> None:
-    opts = route_options({"max_height_m": 0.9, "rel_peak": 0.4, "sigma_px": 1.5}, STEREO_STAGES)
+    opts = route_options(
+        {"max_height_m": 0.9, "rel_peak": 0.4, "bias_sigma_px": 0.2}, STEREO_STAGES
+    )
     assert opts["triangulation"] == TriangulationOptions(max_height_m=0.9)
     assert opts["faces"] == FaceOptions(max_height_m=0.9)  # the tops bound follows the band
     assert opts["matching"] == MatchOptions(rel_peak=0.4)
-    assert opts["segments"] == SegmentOptions(sigma_px=1.5)
+    assert opts["segments"] == SegmentOptions(bias_sigma_px=0.2)
+    with pytest.raises(ValueError, match=r"unknown option\(s\) \['sigma_px'\]"):
+        route_options({"sigma_px": 1.5}, STEREO_STAGES)  # the rig's, not an option
     assert route_options({}, STEREO_STAGES)["matching"] == MatchOptions()
     with pytest.raises(ValueError, match=r"unknown option\(s\) \['rel_peek'\]; known: \["):
         route_options({"rel_peek": 0.4}, STEREO_STAGES)

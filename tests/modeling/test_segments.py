@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import modeling.segments as segments_module
+from modeling.rig import StereoRig
 from modeling.segments import ImageSegments, SegmentOptions, extract_segments
 
 
@@ -52,7 +53,7 @@ def test_slanted_edge_position_and_slope() -> None:
 def test_variance_model_matches_least_squares_theory() -> None:
     rng = np.random.default_rng(3)
     img = _bars([(100, 140)])
-    segs = extract_segments(img, sigma_px=0.5, bias_sigma_px=0.0)
+    segs = extract_segments(img, rig=StereoRig(sigma_px=0.5), bias_sigma_px=0.0)
     i = int(np.argmin(segs.endpoints[:, 0, 0]))
     n, svv = segs.n_points[i], segs.s_vv[i]
     v = np.array([segs.v_center[i], segs.endpoints[i, 0, 1]])
@@ -63,7 +64,9 @@ def test_variance_model_matches_least_squares_theory() -> None:
     centres = []
     for _ in range(40):
         noisy = np.clip(img + rng.normal(0.0, 25.0, img.shape), 0, 255).astype(np.uint8)
-        s = extract_segments(noisy, sigma_px=0.01, bias_sigma_px=0.0, min_gradient=20.0)
+        s = extract_segments(
+            noisy, rig=StereoRig(sigma_px=0.01), bias_sigma_px=0.0, min_gradient=20.0
+        )
         j = np.flatnonzero(np.abs(s.endpoints[:, 0, 0] - 99.5) < 2)
         if j.size == 1 and s.n_points[j[0]] > 150:
             centres.append((s.u_at(j, np.array([120.0]))[0], s.u_var_at(j, np.array([120.0]))[0]))
@@ -139,7 +142,6 @@ def test_wrong_input_raises_naming_gray(bad: object) -> None:
     ("option", "value"),
     [
         ("min_angle_deg", 95.0),
-        ("sigma_px", 0.0),
         ("bias_sigma_px", -0.1),
         ("min_length_px", float("nan")),
         ("lsd_scale", 2.0),
@@ -339,4 +341,4 @@ def test_options_as_a_dataclass_or_flat_keywords() -> None:
     with pytest.raises(ValueError, match="near_px"):
         SegmentOptions(near_px=5.0)
     with pytest.raises(dataclasses.FrozenInstanceError):
-        SegmentOptions().sigma_px = 1.0  # type: ignore[misc]
+        SegmentOptions().bias_sigma_px = 1.0  # type: ignore[misc]

@@ -3,6 +3,7 @@ ambiguity bookkeeping, the end-to-end helper and bad input."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -13,6 +14,7 @@ from modeling.matching import StereoMatches
 from modeling.observation import FloorObservation
 from modeling.pipeline import stereo_to_floor
 from modeling.rig import HeadPose, StereoRig
+from modeling.segments import extract_segment_pair
 from modeling.triangulation import (
     TriangulationOptions,
     triangulate_points,
@@ -307,3 +309,24 @@ def test_stereo_to_floor_end_to_end_grey_and_rgb() -> None:
         stereo_to_floor(left, right[:, :100], RIG, pose)
     with pytest.raises(ValueError, match="unknown"):
         stereo_to_floor(left, right, RIG, pose, bogus=1)
+
+
+def test_the_rigs_sigma_px_drives_the_endpoint_covariance() -> None:
+    # Issue 16e: StereoRig.sigma_px is the floor of the per-point variance of the segment fit. On
+    # clean edges (no pixel noise, no correlated bias) the floor holds for every segment, so the
+    # whole floor covariance scales with sigma_px^2: doubling it doubles every endpoint std.
+    left, right, _ = render_pair(RIG, [(-0.4, -0.1, -0.6, 0.8, 2.0, 200.0)])
+    pose = HeadPose(x_m=0.0, y_m=0.0, heading_rad=0.0, height_m=0.8)
+    obs = {}
+    for sigma in (0.5, 1.0):
+        rig = dataclasses.replace(RIG, sigma_px=sigma)
+        sl, sr = extract_segment_pair(left, right, rig=rig, bias_sigma_px=0.0)
+        assert np.all(sl.point_var == sigma**2) and np.all(sr.point_var == sigma**2)
+        obs[sigma] = stereo_to_floor(left, right, rig, pose, bias_sigma_px=0.0)
+    a, b = obs[0.5], obs[1.0]
+    assert len(a.segments) == len(b.segments) >= 2
+    for sa, sb in zip(a.segments, b.segments, strict=True):
+        np.testing.assert_array_equal(sa.endpoints, sb.endpoints)  # the means do not move
+        np.testing.assert_allclose(sb.cov, 4.0 * sa.cov, rtol=1e-12)
+        std_a = np.sqrt(np.linalg.eigvalsh(sa.cov))
+        np.testing.assert_allclose(np.sqrt(np.linalg.eigvalsh(sb.cov)), 2.0 * std_a, rtol=1e-9)
