@@ -83,9 +83,10 @@ def test_a_face_wider_than_the_robot_is_closed_along_its_true_outline() -> None:
     err = np.abs(np.sort(ends, axis=0) - np.sort(true_corners, axis=0))
     assert err.max() <= 0.1
     assert added[0].source == FACE_SOURCE
-    # without it the two edges are isolated points with a passable gap between them, dropped as
-    # isolated short segments: no obstacle at all; with it, one obstacle across the face
-    assert len(build_model(floor, ROBOT_WIDTH_M).most_probable.obstacles) == 0
+    # without it the two edges are two vertical edges (kept: long in 3D) with a passable gap
+    # between them, the face taken for a way through; with it, one obstacle across the face
+    apart = build_model(floor, ROBOT_WIDTH_M).most_probable
+    assert len(apart.obstacles) == 2 and apart.critical_regions == ()
     assert len(build_model(closed, ROBOT_WIDTH_M).most_probable.obstacles) == 1
 
 
