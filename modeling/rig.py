@@ -213,36 +213,49 @@ class StereoRig:
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class HeadPose:
-    """Pose of the LEFT optical centre of a level stereo head.
+    """Pose of the LEFT optical centre of a stereo head, level or tilted down.
 
     Attributes:
         x_m: World x of the left optical centre, metres.
         y_m: World y, metres.
-        heading_rad: Direction of the optical axis, radians counter-clockwise from world +x.
+        heading_rad: Direction of the optical axis on the floor, radians counter-clockwise from
+            world +x.
         height_m: Height of the optical centre above the floor, metres (> 0).
+        tilt_rad: Pitch of the optical axis below the horizon, radians (positive: looking down),
+            in (-pi/2, pi/2). The pair stays rectified (the rotation is about the camera x axis,
+            the baseline).
     """
 
     x_m: float
     y_m: float
     heading_rad: float
     height_m: float
+    tilt_rad: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("x_m", "y_m", "heading_rad", "height_m"):
+        for name in ("x_m", "y_m", "heading_rad", "height_m", "tilt_rad"):
             value = getattr(self, name)
             if not math.isfinite(float(value)):
                 raise ValueError(f"{name} must be finite, got {value!r}")
             object.__setattr__(self, name, float(value))
         if self.height_m <= 0:
             raise ValueError(f"height_m must be positive, got {self.height_m!r}")
+        if not abs(self.tilt_rad) < 0.5 * math.pi:
+            raise ValueError(f"tilt_rad must be in (-pi/2, pi/2), got {self.tilt_rad!r}")
 
     @property
     def R_cam2world(self) -> FloatArray:
-        """3x3 rotation whose columns are the camera x (right), y (down), z (forward), world."""
+        """3x3 rotation whose columns are the camera x (right), y (down), z (forward), world.
+
+        Level: right ``(s, -c, 0)``, down ``(0, 0, -1)``, forward ``(c, s, 0)`` (``c, s`` of
+        the heading); the tilt turns forward and down about right: forward
+        ``cos(t) (c, s, 0) + sin(t) (0, 0, -1)``, down ``cos(t) (0, 0, -1) - sin(t) (c, s, 0)``.
+        """
         c, s = math.cos(self.heading_rad), math.sin(self.heading_rad)
+        ct, st = math.cos(self.tilt_rad), math.sin(self.tilt_rad)
         right = [s, -c, 0.0]
-        down = [0.0, 0.0, -1.0]
-        forward = [c, s, 0.0]
+        down = [-st * c, -st * s, -ct]
+        forward = [ct * c, ct * s, -st]
         return np.array([right, down, forward]).T
 
     @property

@@ -217,6 +217,8 @@ def floor_rows_reference(rows: MatchRows, frame: FloorFrame) -> FloorRows:
     )
     # 2. the height band: both band edges (columns: max_height_m, min_height_m) at once
     b, H, cy = frame.baseline_m, frame.height_m, frame.cy_px
+    ct, st = frame.cos_tilt, frame.sin_tilt
+    fbs = st * frame.fb
     lo, hi = frame.min_height_m, frame.max_height_m
     v_e = rows.ends[idx, :, 1]  # (k, 2) rows of the two ends
     d_e = d_all[idx]
@@ -225,9 +227,9 @@ def floor_rows_reference(rows: MatchRows, frame: FloorFrame) -> FloorRows:
     dd = d_e[:, 1] - d0
     k_band = np.array([H - hi, H - lo])
     with np.errstate(divide="ignore", invalid="ignore"):
-        h = H - (v_e - cy) * b / d_e  # (k, 2) heights of the two ends
-        t_band = (k_band * d0[:, None] - ((v0 - cy) * b)[:, None]) / (
-            (dv * b)[:, None] - k_band * dd[:, None]
+        h = H - (ct * (v_e - cy) * b + fbs) / d_e  # (k, 2) heights of the two ends
+        t_band = (k_band * d0[:, None] - (ct * (v0 - cy) * b + fbs)[:, None]) / (
+            (ct * dv * b)[:, None] - k_band * dd[:, None]
         )
     h0, h1 = h[:, 0], h[:, 1]
     falling = h0 >= h1  # the usual case: the height drops as the row increases
@@ -247,28 +249,46 @@ def floor_rows_reference(rows: MatchRows, frame: FloorFrame) -> FloorRows:
     idx, T = idx[sel], T[sel]
     ends = rows.ends[idx]
     block = np.stack(
-        [ends[:, :, 0], ends[:, :, 1], d_all[idx], rows.u_var[idx], rows.d_var[idx]]
-    )  # (5, k, 2): u, v, d, var u, var d at the two ends, moved to the clipped ends
-    u, v, d, var_u, var_d = block[:, :, :1] + (block[:, :, 1:] - block[:, :, :1]) * T
-    # 3. (u, d) -> camera (X, Z), J S J^T, then the level head's rotation to the world
+        [
+            ends[:, :, 0],
+            ends[:, :, 1],
+            d_all[idx],
+            rows.u_var[idx],
+            rows.d_var[idx],
+            rows.v_var[idx],
+        ]
+    )  # (6, k, 2): u, v, d, var u, var d, var v at the two ends, moved to the clipped ends
+    u, v, d, var_u, var_d, var_v = block[:, :, :1] + (block[:, :, 1:] - block[:, :, :1]) * T
+    # 3. (u, d, v) -> camera (X, Y, Z); the floor point p = A (X, Y, Z) and J_p S J_p^T
     inv_d = 1.0 / d
     bd = b * inv_d
     X = (u - frame.cx_px) * bd
+    Y = (v - cy) * bd
     Z = frame.fb * inv_d
-    xd = X * inv_d
-    zd = Z * inv_d
-    s_xx = bd * bd * var_u - 2.0 * bd * xd * var_u + xd * xd * var_d
-    s_xz = -bd * zd * var_u + xd * zd * var_d
-    s_zz = zd * zd * var_d
     c, s = frame.cos_heading, frame.sin_heading
+    A = np.array([[s, -st * c, ct * c], [-c, -st * s, ct * s]])  # rows: world x, y
+    J = np.empty((*u.shape, 2, 3))  # J_p = A J, columns u, d, v
+    for r in range(2):
+        ax, ay, az = A[r]
+        J[..., r, 0] = ax * bd
+        J[..., r, 1] = -(ax * X + ay * Y + az * Z) * inv_d
+        J[..., r, 2] = ay * bd
     xy = np.empty((*u.shape, 2))
-    xy[..., 0] = frame.x_m + s * X + c * Z
-    xy[..., 1] = frame.y_m - c * X + s * Z
+    xy[..., 0] = frame.x_m + A[0, 0] * X + A[0, 1] * Y + A[0, 2] * Z
+    xy[..., 1] = frame.y_m + A[1, 0] * X + A[1, 1] * Y + A[1, 2] * Z
     cov = np.empty((*u.shape, 2, 2))
-    cov[..., 0, 0] = s * s * s_xx + 2.0 * s * c * s_xz + c * c * s_zz
-    cov[..., 1, 1] = c * c * s_xx - 2.0 * s * c * s_xz + s * s * s_zz
-    cov[..., 0, 1] = cov[..., 1, 0] = -s * c * s_xx + (s * s - c * c) * s_xz + s * c * s_zz
-    heights = H - (v - cy) * bd
+    for r, q in ((0, 0), (1, 1), (0, 1)):  # S = [[vu, vu, 0], [vu, vd, 0], [0, 0, vv]]
+        ju, jd, jv = J[..., r, 0], J[..., r, 1], J[..., r, 2]
+        ku, kd, kv = J[..., q, 0], J[..., q, 1], J[..., q, 2]
+        if r == q:
+            cov[..., r, q] = (
+                ju * ju * var_u + 2.0 * ju * jd * var_u + jd * jd * var_d + jv * jv * var_v
+            )
+        else:
+            cov[..., 0, 1] = cov[..., 1, 0] = (
+                ju * ku * var_u + (ju * kd + jd * ku) * var_u + jd * kd * var_d + jv * kv * var_v
+            )
+    heights = H - ct * Y - st * Z
     det = cov[..., 0, 0] * cov[..., 1, 1] - cov[..., 0, 1] ** 2
     ok = (cov[..., 0, 0] > 0) & (det > 0)
     good = np.flatnonzero(ok[:, 0] & ok[:, 1])
@@ -332,6 +352,8 @@ def triangulate_to_floor(
         height_m=head_pose.height_m,
         cos_heading=math.cos(head_pose.heading_rad),
         sin_heading=math.sin(head_pose.heading_rad),
+        cos_tilt=math.cos(head_pose.tilt_rad),
+        sin_tilt=math.sin(head_pose.tilt_rad),
     )
     rows = MatchRows(
         probability=matches.probability,
@@ -340,6 +362,7 @@ def triangulate_to_floor(
         disparity=matches.disparity_px,
         u_var=matches.u_left_var,
         d_var=matches.disparity_var,
+        v_var=matches.v_var,
     )
     segments, ambiguous = _grouped(floor_rows(rows, frame), opts.min_probability)
     return _observation(segments, ambiguous, rig, head_pose)

@@ -18,6 +18,7 @@ never stored.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
@@ -85,6 +86,8 @@ class CameraConfig:
         pixel_noise_std: Standard deviation of the Gaussian noise added to every pixel, grey
             levels (rounded to whole grey levels, the same value on its three channels; 0 =
             none), drawn from the env's ``np_random``.
+        tilt_rad: Pitch of the head's optical axis below the horizon, radians (positive: looking
+            down), in (-pi/2, pi/2) (``modeling.rig.HeadPose.tilt_rad``).
     """
 
     width_px: int = 320
@@ -92,9 +95,11 @@ class CameraConfig:
     focal_px: float = 260.0
     baseline_m: float = 0.12
     pixel_noise_std: float = 2.0
+    tilt_rad: float = 0.0
 
     def __post_init__(self) -> None:
         integer(self.width_px, "width_px", low=16)
+        number(self.tilt_rad, "tilt_rad", low=-0.5 * math.pi, high=0.5 * math.pi)
         integer(self.height_px, "height_px", low=16)
         number(self.pixel_noise_std, "pixel_noise_std", low=0.0, strict=False)
         _ = self.rig  # the rig checks focal_px and baseline_m (its errors name them)

@@ -254,7 +254,8 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     @property
     def head_pose(self) -> HeadPose:
         """Pose of the LEFT optical centre now."""
-        return self._require_world().head_pose(self.rig.baseline_m)
+        tilt = self.config.camera.tilt_rad
+        return self._require_world().head_pose(self.rig.baseline_m, tilt_rad=tilt)
 
     @property
     def robot_pose(self) -> tuple[float, float, float]:

@@ -214,11 +214,12 @@ class World:
         """Head pan relative to the body, radians."""
         return self._pan
 
-    def head_pose(self, baseline_m: float) -> HeadPose:
+    def head_pose(self, baseline_m: float, *, tilt_rad: float = 0.0) -> HeadPose:
         """Pose of the LEFT optical centre of a head of ``baseline_m`` centred on the robot.
 
         The left camera is ``baseline_m / 2`` to the left of the robot's centre, across the gaze
-        direction, at ``head_height_m``.
+        direction, at ``head_height_m``, its optical axis ``tilt_rad`` below the horizon
+        (``CameraConfig.tilt_rad``; validated by ``HeadPose``).
         """
         if not (math.isfinite(baseline_m) and baseline_m > 0):
             raise ValueError(f"baseline_m must be a positive finite number, got {baseline_m!r}")
@@ -230,6 +231,7 @@ class World:
             y_m=s.y_m + half * math.cos(gaze),
             heading_rad=gaze,
             height_m=self.config.head_height_m,
+            tilt_rad=tilt_rad,
         )
 
     def in_collision(self) -> bool:

@@ -35,6 +35,8 @@ class MatchRows(NamedTuple):
         disparity: (m, 2) the disparity at both ends, px.
         u_var: (m, 2) the variance of the left column at both ends, px^2.
         d_var: (m, 2) the variance of the disparity at both ends, px^2.
+        v_var: (m, 2) the variance of the row at both ends, px^2 (independent of ``u`` and
+            ``d``; it moves the floor point only when the head is tilted).
     """
 
     probability: FloatArray
@@ -43,6 +45,7 @@ class MatchRows(NamedTuple):
     disparity: FloatArray
     u_var: FloatArray
     d_var: FloatArray
+    v_var: FloatArray
 
 
 class FloorFrame(NamedTuple):
@@ -53,6 +56,7 @@ class FloorFrame(NamedTuple):
         baseline_m, cx_px, cy_px, fb: Of the rig (``fb = focal_px * baseline_m``).
         x_m, y_m, height_m: The head's position, m.
         cos_heading, sin_heading: Of its heading.
+        cos_tilt, sin_tilt: Of its tilt (pitch down positive).
     """
 
     min_probability: float
@@ -67,6 +71,8 @@ class FloorFrame(NamedTuple):
     height_m: float
     cos_heading: float
     sin_heading: float
+    cos_tilt: float
+    sin_tilt: float
 
 
 class FloorRows(NamedTuple):
@@ -107,12 +113,17 @@ def floor_rows(rows: MatchRows, frame: FloorFrame) -> FloorRows:
         The kept rows.
     """
     probability, left_index, ends = rows.probability, rows.left_index, rows.ends
-    disparity, u_var, d_var = rows.disparity, rows.u_var, rows.d_var
+    disparity, u_var, d_var, v_var = rows.disparity, rows.u_var, rows.d_var, rows.v_var
     min_probability = frame.min_probability
     min_height_m, max_height_m = frame.min_height_m, frame.max_height_m
     b, cx, cy, fb = frame.baseline_m, frame.cx_px, frame.cy_px, frame.fb
     x0, y0, H = frame.x_m, frame.y_m, frame.height_m
     c, s = frame.cos_heading, frame.sin_heading
+    ct, st = frame.cos_tilt, frame.sin_tilt
+    fbs = st * fb  # the tilt's share of the height drop, times the disparity
+    # the floor point p = A (X, Y, Z): A's rows (the level head: Y does not move it)
+    a0x, a0y, a0z = s, -st * c, ct * c
+    a1x, a1y, a1z = -c, -st * s, ct * s
     m = probability.shape[0]
     k_top = H - max_height_m
     k_bottom = H - min_height_m
@@ -141,10 +152,10 @@ def floor_rows(rows: MatchRows, frame: FloorFrame) -> FloorRows:
         d0, d1 = disparity[r, 0], disparity[r, 1]
         dv = v1 - v0
         dd = d1 - d0
-        h0 = H - (v0 - cy) * b / d0
-        h1 = H - (v1 - cy) * b / d1
-        t_top = (k_top * d0 - (v0 - cy) * b) / (dv * b - k_top * dd)
-        t_bottom = (k_bottom * d0 - (v0 - cy) * b) / (dv * b - k_bottom * dd)
+        h0 = H - (ct * (v0 - cy) * b + fbs) / d0
+        h1 = H - (ct * (v1 - cy) * b + fbs) / d1
+        t_top = (k_top * d0 - (ct * (v0 - cy) * b + fbs)) / (ct * dv * b - k_top * dd)
+        t_bottom = (k_bottom * d0 - (ct * (v0 - cy) * b + fbs)) / (ct * dv * b - k_bottom * dd)
         falling = h0 >= h1
         # end 0 leaves through the top edge of a falling segment, end 1 through the bottom one
         if falling:
@@ -171,26 +182,40 @@ def floor_rows(rows: MatchRows, frame: FloorFrame) -> FloorRows:
             d = d0 + (d1 - d0) * te
             var_u = u_var[r, 0] + (u_var[r, 1] - u_var[r, 0]) * te
             var_d = d_var[r, 0] + (d_var[r, 1] - d_var[r, 0]) * te
-            # (u, d) -> camera (X, Z) with J S J^T, then the level head's rotation to the world
+            var_v = v_var[r, 0] + (v_var[r, 1] - v_var[r, 0]) * te
+            # (u, d, v) -> camera (X, Y, Z), then p = A (X, Y, Z) and J_p S J_p^T
             inv_d = 1.0 / d
             bd = b * inv_d
             X = (u - cx) * bd
+            Y = (v - cy) * bd
             Z = fb * inv_d
-            xd = X * inv_d
-            zd = Z * inv_d
-            s_xx = bd * bd * var_u - 2.0 * bd * xd * var_u + xd * xd * var_d
-            s_xz = -bd * zd * var_u + xd * zd * var_d
-            s_zz = zd * zd * var_d
-            xy[n, e, 0] = x0 + s * X + c * Z
-            xy[n, e, 1] = y0 - c * X + s * Z
-            c00 = s * s * s_xx + 2.0 * s * c * s_xz + c * c * s_zz
-            c11 = c * c * s_xx - 2.0 * s * c * s_xz + s * s * s_zz
-            c01 = -s * c * s_xx + (s * s - c * c) * s_xz + s * c * s_zz
+            # rows of J_p = A J, columns u, d, v
+            j0u = a0x * bd
+            j0d = -(a0x * X + a0y * Y + a0z * Z) * inv_d
+            j0v = a0y * bd
+            j1u = a1x * bd
+            j1d = -(a1x * X + a1y * Y + a1z * Z) * inv_d
+            j1v = a1y * bd
+            xy[n, e, 0] = x0 + a0x * X + a0y * Y + a0z * Z
+            xy[n, e, 1] = y0 + a1x * X + a1y * Y + a1z * Z
+            # S = [[var_u, var_u, 0], [var_u, var_d, 0], [0, 0, var_v]]
+            c00 = (
+                j0u * j0u * var_u + 2.0 * j0u * j0d * var_u + j0d * j0d * var_d + j0v * j0v * var_v
+            )
+            c11 = (
+                j1u * j1u * var_u + 2.0 * j1u * j1d * var_u + j1d * j1d * var_d + j1v * j1v * var_v
+            )
+            c01 = (
+                j0u * j1u * var_u
+                + (j0u * j1d + j0d * j1u) * var_u
+                + j0d * j1d * var_d
+                + j0v * j1v * var_v
+            )
             cov[n, e, 0, 0] = c00
             cov[n, e, 0, 1] = c01
             cov[n, e, 1, 0] = c01
             cov[n, e, 1, 1] = c11
-            heights[n, e] = H - (v - cy) * bd
+            heights[n, e] = H - ct * Y - st * Z
             # a degenerate covariance is not a normal distribution: the row is dropped
             if not (c00 > 0 and c00 * c11 - c01 * c01 > 0):
                 ok = False

@@ -20,6 +20,7 @@ def _rows(rng: np.random.Generator, m: int) -> MatchRows:
     disparity = rng.uniform(2.0, 40.0, (m, 2))
     u_var = rng.uniform(0.005, 0.1, (m, 2))
     d_var = rng.uniform(0.01, 0.3, (m, 2))
+    v_var = rng.uniform(0.5, 2.0, (m, 2))
     probability = rng.choice([0.0, 0.25, 0.5, 1.0], m)  # ties: the sort must be stable
     bad = rng.integers(0, m, 6)
     disparity[bad[0], 0] = -1.0
@@ -36,10 +37,11 @@ def _rows(rng: np.random.Generator, m: int) -> MatchRows:
         disparity=disparity,
         u_var=u_var,
         d_var=d_var,
+        v_var=v_var,
     )
 
 
-def _frame(rng: np.random.Generator) -> FloorFrame:
+def _frame(rng: np.random.Generator, tilt: float = 0.0) -> FloorFrame:
     heading = rng.uniform(-math.pi, math.pi)
     low = rng.uniform(-0.2, 0.3)
     return FloorFrame(
@@ -55,13 +57,16 @@ def _frame(rng: np.random.Generator) -> FloorFrame:
         height_m=rng.uniform(0.5, 1.2),
         cos_heading=math.cos(heading),
         sin_heading=math.sin(heading),
+        cos_tilt=math.cos(tilt),
+        sin_tilt=math.sin(tilt),
     )
 
 
 @pytest.mark.parametrize("seed", range(6))
-def test_kernel_equals_reference(seed: int) -> None:
+@pytest.mark.parametrize("tilt", [0.0, 0.3, -0.2])
+def test_kernel_equals_reference(seed: int, tilt: float) -> None:
     rng = np.random.default_rng(seed)
-    rows, frame = _rows(rng, 48), _frame(rng)
+    rows, frame = _rows(rng, 48), _frame(rng, tilt)
     got, want = floor_rows(rows, frame), floor_rows_reference(rows, frame)
     assert 0 < want.xy.shape[0] < 48  # some rows kept, some dropped
     assert got._fields == want._fields

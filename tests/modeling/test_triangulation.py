@@ -223,11 +223,13 @@ def test_options_object_and_keywords_agree() -> None:
     np.testing.assert_allclose(wide.segments[0].height_m, [0.9, 0.3], atol=1e-9)
 
 
-def test_floor_covariance_is_the_world_xy_block_of_the_3d_one() -> None:
-    # slanted segments at several depths seen from a turned head: the floor covariance must be the
-    # (x, y) block of R (J S J^T) R^T, the means the triangulated points
+@pytest.mark.parametrize("tilt", [0.0, 0.3, -0.15])
+def test_floor_covariance_is_the_world_xy_block_of_the_3d_one(tilt: float) -> None:
+    # slanted segments at several depths seen from a turned (and tilted) head: the floor
+    # covariance must be the (x, y) block of R (J S J^T) R^T, the means the triangulated points,
+    # the heights their world z (with a tilt, the row's variance moves the floor point too)
     rng = np.random.default_rng(5)
-    pose = HeadPose(x_m=-1.0, y_m=0.5, heading_rad=2.3, height_m=0.8)
+    pose = HeadPose(x_m=-1.0, y_m=0.5, heading_rad=2.3, height_m=0.8, tilt_rad=tilt)
     n = 12
     u0 = rng.uniform(20, 300, n)
     v0 = rng.uniform(130, 160, n)

@@ -22,6 +22,8 @@ def test_flat_keywords_reach_the_sub_configuration_that_owns_them() -> None:
         scenario="two_gaps", num_situations=4, goal_reward=3.0, pixel_noise_std=1.5
     )
     assert cfg.scenario == "two_gaps" and cfg.camera.pixel_noise_std == 1.5
+    assert cfg.camera.tilt_rad == 0.0
+    assert EnvConfig.from_kwargs(tilt_rad=0.3).camera.tilt_rad == 0.3
     assert cfg.observation.num_situations == 4 and cfg.observation.num_regions == 8
     assert cfg.rewards.goal_reward == 3.0 and cfg.rewards.time_penalty == 0.01
 
@@ -49,6 +51,7 @@ def test_whole_sub_configurations_are_accepted_and_flat_keys_override_them() -> 
         ({"robot_width_m": 0.0}, "robot_width_m"),
         ({"baseline_m": -1.0}, "baseline_m"),
         ({"pixel_noise_std": -1.0}, "pixel_noise_std"),
+        ({"tilt_rad": 1.6}, "tilt_rad"),
         ({"eps": 0.5}, "eps"),
         ({"width_px": 10}, "width_px"),
         ({"model_max_situations": 0}, "model_max_situations"),

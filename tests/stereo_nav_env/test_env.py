@@ -427,3 +427,20 @@ def test_stable_baselines3_multi_input_policy_trains_on_the_observation(env_id: 
         assert env.action_space.contains(action)
     finally:
         env.close()
+
+
+def test_the_camera_tilt_reaches_the_head_pose() -> None:
+    level = gym.make("StereoNav-v0", diagnostics=False, **TINY)
+    tilted = gym.make("StereoNav-v0", diagnostics=False, tilt_rad=0.3, **TINY)
+    try:
+        level.reset(seed=0)
+        tilted.reset(seed=0)
+        pose = tilted.unwrapped.head_pose
+        assert pose.tilt_rad == 0.3 and level.unwrapped.head_pose.tilt_rad == 0.0
+        assert (pose.x_m, pose.y_m) == pytest.approx(
+            (level.unwrapped.head_pose.x_m, level.unwrapped.head_pose.y_m)
+        )
+        np.testing.assert_allclose(pose.R_cam2world[2, 2], -math.sin(0.3))  # looking down
+    finally:
+        level.close()
+        tilted.close()

@@ -47,6 +47,8 @@ def test_invalid_rig_names_the_field(kwargs: dict[str, Any], name: str) -> None:
         ({"height_m": 0.0}, "height_m"),
         ({"x_m": float("inf")}, "x_m"),
         ({"heading_rad": float("nan")}, "heading_rad"),
+        ({"tilt_rad": 1.6}, "tilt_rad"),
+        ({"tilt_rad": float("nan")}, "tilt_rad"),
     ],
 )
 def test_invalid_head_pose_names_the_field(kwargs: dict[str, Any], name: str) -> None:
@@ -101,3 +103,19 @@ def test_head_pose_frames() -> None:
     np.testing.assert_allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-12)
     assert np.linalg.det(T[:3, :3]) == pytest.approx(1.0)
     np.testing.assert_allclose(pose.right_camera_position(StereoRig()), [1.12, 2.0, 0.8])
+
+
+def test_a_tilted_head_looks_down_about_its_baseline() -> None:
+    t = 0.3
+    pose = HeadPose(x_m=0.0, y_m=0.0, heading_rad=math.pi / 2, height_m=0.8, tilt_rad=t)
+    R = pose.R_cam2world
+    np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-15)
+    assert np.linalg.det(R) == pytest.approx(1.0)
+    np.testing.assert_allclose(
+        R[:, 0], HeadPose(x_m=0, y_m=0, heading_rad=math.pi / 2, height_m=1).R_cam2world[:, 0]
+    )
+    np.testing.assert_allclose(R[:, 2], [0.0, math.cos(t), -math.sin(t)], atol=1e-15)  # forward
+    # the optical axis meets the floor height_m / tan(tilt) ahead
+    ahead = 0.8 / math.tan(t)
+    P_cam = pose.world_to_cam(np.array([[0.0, ahead, 0.0]]))
+    np.testing.assert_allclose(P_cam[0, :2], [0.0, 0.0], atol=1e-12)
