@@ -18,9 +18,12 @@ variances by linear interpolation between the two ends, which over-states them s
 with nothing left inside the band is dropped. The floor segment is the ``(x, y)`` part, with the
 full 2x2 covariance of each endpoint.
 
-The head is level, so the floor coordinates depend on ``(X, Z)`` only: the 2x2 floor covariance is
-computed in closed form from the ``(u, d)`` block of ``S`` (equal to the ``(x, y)`` block of the
-world-frame ``R J S J^T R^T``, which ``triangulate_points`` gives in full).
+The head may be tilted down (``HeadPose.tilt_rad``, about the baseline: the pair stays rectified
+and the camera-frame triangulation is unchanged): the floor point is ``p = A (X, Y, Z)`` with
+``A`` the ``(x, y)`` rows of ``R_cam2world``, and its 2x2 covariance ``J_p S J_p^T``, ``J_p = A J``,
+is computed in closed form (equal to the ``(x, y)`` block of the world-frame
+``R J S J^T R^T``, which ``triangulate_points`` gives in full). Level, ``A`` has no ``Y`` column
+and the row's variance moves only the height.
 
 Ambiguity (section 3.3): a left segment whose matches all survive gives a ``FloorSegment`` (one
 match) or an ``AmbiguousSegment`` (several). A match dropped by the height band is a possible match
@@ -185,17 +188,20 @@ def floor_rows_reference(rows: MatchRows, frame: FloorFrame) -> FloorRows:
        disparity at both ends), finite (a NaN or an infinity anywhere makes the row's sum
        non-finite).
     2. Height band (section 2): along the segment (``t`` in [0, 1] from the top end) the row and
-       the disparity are affine, so the height ``h(t) = H - (v(t) - cy) b / d(t)`` is monotonic
-       and crosses a height at ``t = (k d0 - (v0 - cy) b) / (dv b - k dd)``, ``k = H - height``.
+       the disparity are affine, so the height
+       ``h(t) = H - (cos(tilt) (v(t) - cy) b + sin(tilt) f b) / d(t)`` is monotonic and crosses
+       a height at ``t = (k d0 - (cos(tilt) (v0 - cy) b + sin(tilt) f b)) /
+       (cos(tilt) dv b - k dd)``, ``k = H - height``.
        The higher end leaves through ``max_height_m``, the lower one through ``min_height_m``; an
        end beyond its edge is moved to the crossing (``u, v, d`` and the variances interpolated
        there), the others stay at ``t = 0`` and ``1``. A row with nothing inside is dropped.
-    3. Floor point and covariance (section 3.2): ``(u, d) -> (X, Z) = ((u - cx) b / d, f b / d)``
-       with ``J = [[b/d, -X/d], [0, -Z/d]]`` and ``S = [[var_u, var_u], [var_u, var_d]]``
-       (``cov(u, d) = var u_left`` since ``d = u_left - u_right``); ``v`` moves only the height.
-       The level head turns ``(X, Z)`` to the world: ``x = x0 + s X + c Z``,
-       ``y = y0 - c X + s Z``, and ``J S J^T`` with it. A row with a degenerate covariance (not a
-       normal distribution) is dropped.
+    3. Floor point and covariance (section 3.2): ``(u, d, v) -> (X, Y, Z) = ((u - cx) b / d,
+       (v - cy) b / d, f b / d)``, the floor point ``p = (x0, y0) + A (X, Y, Z)`` with ``A``
+       the ``(x, y)`` rows of the head's ``R_cam2world``, ``J_p = A J`` and
+       ``S = [[var_u, var_u, 0], [var_u, var_d, 0], [0, 0, var_v]]`` (``cov(u, d) = var
+       u_left`` since ``d = u_left - u_right``); level, ``A``'s ``Y`` column is 0 and ``v``
+       moves only the height ``H - cos(tilt) Y - sin(tilt) Z``. A row with a degenerate
+       covariance (not a normal distribution) is dropped.
     4. Grouping: by left segment, then decreasing probability (stable).
 
     Args:
@@ -314,7 +320,7 @@ def triangulate_to_floor(
             non-positive or non-finite disparity, or non-finite endpoints or variances, are
             ignored (nothing to triangulate).
         rig: The stereo rig that took the pair.
-        head_pose: Pose of the left optical centre (level head) in the world.
+        head_pose: Pose of the left optical centre (level or tilted head) in the world.
         options: The height band and probability floor (defaults: ``TriangulationOptions()``).
         **overrides: Fields of :class:`TriangulationOptions` (``min_height_m``,
             ``max_height_m``, ``min_probability``) replacing those of ``options``.

@@ -121,7 +121,7 @@ def floor_rows(rows: MatchRows, frame: FloorFrame) -> FloorRows:
     c, s = frame.cos_heading, frame.sin_heading
     ct, st = frame.cos_tilt, frame.sin_tilt
     fbs = st * fb  # the tilt's share of the height drop, times the disparity
-    # the floor point p = A (X, Y, Z): A's rows (the level head: Y does not move it)
+    # the floor point p = A (X, Y, Z): A's rows (level, a0y = a1y = 0: Y does not move it)
     a0x, a0y, a0z = s, -st * c, ct * c
     a1x, a1y, a1z = -c, -st * s, ct * s
     m = probability.shape[0]
