@@ -65,13 +65,17 @@ import numpy as np
 import shapely
 from numpy.typing import ArrayLike
 
-from modeling.memory_ambiguity import candidates_of, reweight
+from modeling.memory_ambiguity import Candidates, candidates_of, explain_new, reweight
 from modeling.memory_association import (
+    SegmentStack,
     assign,
+    concat,
     fused_segments,
     gated_pairs,
     odds_update,
+    replaced,
     stack_of,
+    take,
 )
 from modeling.memory_visibility import Visibility, visibility
 from modeling.model import ModelOptions, build_model
@@ -205,6 +209,9 @@ class ModelMemory:
             candidate counts from its ambiguity).
         ambiguous_seen: The view that last detected each ambiguity.
         report_existence: :meth:`observation` keeps the segments at least this probable.
+        segment_arrays: The segments as arrays (derived: computed from ``segments`` when None;
+            :func:`fuse` passes the arrays it has).
+        candidate_arrays: The ambiguities' candidates as arrays (derived likewise).
     """
 
     segments: tuple[FloorSegment, ...] = ()
@@ -219,9 +226,17 @@ class ModelMemory:
     last_seen: tuple[int, ...] = ()
     ambiguous_seen: tuple[int, ...] = ()
     report_existence: float = 0.3
+    segment_arrays: SegmentStack | None = field(default=None, repr=False)
+    candidate_arrays: Candidates | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         n = len(self.segments)
+        if self.segment_arrays is None:
+            object.__setattr__(self, "segment_arrays", stack_of(self.segments))
+        elif self.segment_arrays.ends.shape[0] != n:
+            raise ValueError(f"segment_arrays must have {n} rows")
+        if self.candidate_arrays is None:
+            object.__setattr__(self, "candidate_arrays", candidates_of(self.ambiguous))
         for name, length in (
             ("existence", n),
             ("last_seen", n),
@@ -231,7 +246,7 @@ class ModelMemory:
                 raise ValueError(
                     f"{name} must have {length} entries, got {len(getattr(self, name))}"
                 )
-        if any(not 0.0 <= e <= 1.0 for e in self.existence):
+        if n and not (0.0 <= min(self.existence) and max(self.existence) <= 1.0):
             raise ValueError("existence must lie in [0, 1]")
         if not isinstance(self.seen, shapely.Geometry):
             raise ValueError(f"seen must be a shapely geometry, got {type(self.seen).__name__}")
@@ -333,51 +348,80 @@ def fuse(
     vis = visibility(observation, occluders, n_rays=opts.n_rays, near_m=opts.near_range_m)
 
     # 1. Association of the new unambiguous segments with the remembered ones; fusion.
-    mem = stack_of(memory.segments)
+    mem = memory.segment_arrays
+    assert mem is not None and memory.candidate_arrays is not None  # set by __post_init__
     pairs = assign(gated_pairs(new.ends, new.cov, mem.ends, mem.cov, opts.gate_chi2))
     segments = list(memory.segments)
-    for k, seg in zip(pairs.cols.tolist(), fused_segments(mem, new, pairs), strict=True):
+    fused, fused_arrays = fused_segments(mem, new, pairs)
+    for k, seg in zip(pairs.cols.tolist(), fused, strict=True):
         segments[k] = seg
-    # 2. Existence: seen again gains, seen free and not detected loses, unseen unchanged.
-    detected = np.zeros(len(segments), dtype=bool)
-    detected[pairs.cols] = True
-    ratio = np.ones(len(segments))
-    ratio[detected] = pd / pf
-    ratio[~detected & _seen_free(vis, mem.ends, opts.free_margin_m)] = (1.0 - pd) / (1.0 - pf)
-    existence = odds_update(
-        np.asarray(memory.existence, dtype=np.float64), ratio, opts.max_existence
-    )
-    last_seen = np.where(detected, view, np.asarray(memory.last_seen, dtype=np.int64))
-    # 3. Ambiguities: the unmatched new segments and the new ambiguous ones as evidence.
+    current = replaced(mem, pairs.cols, fused_arrays)
+    # 2. Ambiguities: the unmatched new segments and the new ambiguous ones as evidence on the
+    # remembered ambiguities; the new ambiguities that match none against the segments.
     unmatched = np.ones(new.ends.shape[0], dtype=bool)
     unmatched[pairs.rows] = False
     rest = np.flatnonzero(unmatched)
-    rest_stack = type(new)(*(arr[rest] for arr in new))
     amb = reweight(
         memory.ambiguous,
+        memory.candidate_arrays,
         memory.ambiguous_seen,
-        rest_stack,
+        take(new, rest),
         observation.ambiguous,
+        new_cands,
         lambda ends: _seen_free(vis, ends, opts.free_margin_m),
         opts=opts,
         view=view,
     )
-    # 4. New segments (neither associated nor evidence for a candidate) and resolved candidates.
+    prior = np.asarray(memory.existence, dtype=np.float64)
+    fresh = explain_new(observation.ambiguous, amb, current, prior, opts)
+    absorbed = fresh.absorbed
+    if absorbed.rows.shape[0]:
+        more, more_arrays = fused_segments(current, amb.new_candidates.stack, absorbed)
+        for k, seg in zip(absorbed.cols.tolist(), more, strict=True):
+            segments[k] = seg
+        current = replaced(current, absorbed.cols, more_arrays)
+    # 3. Existence: seen again gains, seen free and not detected loses, unseen unchanged.
+    detected = np.zeros(len(segments), dtype=bool)
+    detected[pairs.cols] = True
+    touched = detected | (fresh.segment_ratio != 1.0)  # absorbed ones among them
+    ratio = np.where(detected, pd / pf, 1.0)
+    ratio[~touched & _seen_free(vis, mem.ends, opts.free_margin_m)] = (1.0 - pd) / (1.0 - pf)
+    existence = odds_update(prior, ratio * fresh.segment_ratio, opts.max_existence)
+    last_seen = np.where(touched, view, np.asarray(memory.last_seen, dtype=np.int64))
+    # 4. Resolved candidates: a remembered segment seen again when they coincide with one, new
+    # segments otherwise; then the new segments (neither associated nor evidence for a
+    # candidate).
+    resolved = [(seg, p, s) for seg, p, s in amb.resolved] + [
+        (seg, p, view) for seg, p in fresh.resolved
+    ]
+    res_arrays = stack_of([seg for seg, _, _ in resolved])
+    res_pairs = assign(
+        gated_pairs(res_arrays.ends, res_arrays.cov, current.ends, current.cov, opts.gate_chi2)
+    )
+    if res_pairs.rows.shape[0]:
+        more, more_arrays = fused_segments(current, res_arrays, res_pairs)
+        for k, r, seg in zip(res_pairs.cols.tolist(), res_pairs.rows.tolist(), more, strict=True):
+            segments[k] = seg
+            existence[k] = max(existence[k], min(resolved[r][1], opts.max_existence))
+            last_seen[k] = max(last_seen[k], resolved[r][2])
+        current = replaced(current, res_pairs.cols, more_arrays)
+    adding = np.setdiff1d(np.arange(len(resolved)), res_pairs.rows)
     entering = np.delete(rest, amb.consumed)
     all_segments = segments + [observation.segments[i] for i in entering.tolist()]
-    all_segments += [seg for seg, _, _ in amb.resolved]
+    all_segments += [resolved[i][0] for i in adding.tolist()]
+    arrays = concat(current, take(new, entering), take(res_arrays, adding))
     all_existence = np.concatenate(
         [
             existence,
             np.full(entering.shape[0], opts.initial_existence),
-            np.array([min(p, opts.max_existence) for _, p, _ in amb.resolved]),
+            np.array([min(resolved[i][1], opts.max_existence) for i in adding.tolist()]),
         ]
     )
     all_seen = np.concatenate(
         [
             last_seen,
             np.full(entering.shape[0], view, dtype=np.int64),
-            np.array([s for _, _, s in amb.resolved], dtype=np.int64),
+            np.array([resolved[i][2] for i in adding.tolist()], dtype=np.int64),
         ]
     )
     # 5. Forget the faded, then bound the size (lowest existence, then least recently seen).
@@ -385,7 +429,8 @@ def fuse(
     keep = alive[
         _keep_bounded(alive.shape[0], opts.max_segments, (all_existence[alive], all_seen[alive]))
     ]
-    ambiguous, amb_seen = amb.ambiguous, amb.seen
+    ambiguous = amb.ambiguous + tuple(fresh.ambiguous)
+    amb_seen = amb.seen + (view,) * len(fresh.ambiguous)
     if len(ambiguous) > opts.max_ambiguous:
         none = np.array([1.0 - sum(a.probabilities) for a in ambiguous])
         kept = _keep_bounded(
@@ -406,6 +451,7 @@ def fuse(
         last_seen=tuple(all_seen[keep].tolist()),
         ambiguous_seen=tuple(amb_seen),
         report_existence=opts.report_existence,
+        segment_arrays=take(arrays, keep),
     )
 
 

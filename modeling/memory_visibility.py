@@ -68,14 +68,14 @@ class Visibility(NamedTuple):
         arc), simplified to ``tolerance_m`` metres; world frame."""
         ang = self.heading + self.angles
         u = np.stack([np.cos(ang), np.sin(ang)], axis=1)
-        reach = np.maximum(self.reach, self.near_m)
-        far = self.origin + reach[:, None] * u
-        if self.near_m > 0.0:
-            ring = np.vstack([far, (self.origin + self.near_m * u)[::-1]])
-        else:
-            ring = np.vstack([self.origin[None, :], far])
-        poly = shapely.make_valid(shapely.Polygon(ring))
-        return shapely.simplify(poly, tolerance_m)
+        if self.near_m > 0.0:  # an annular sector: never touching itself (reach > near)
+            reach = np.maximum(self.reach, self.near_m + 1e-3)
+            ring = np.vstack(
+                [self.origin + reach[:, None] * u, (self.origin + self.near_m * u)[::-1]]
+            )
+        else:  # a star polygon around the viewpoint: simple
+            ring = np.vstack([self.origin[None, :], self.origin + self.reach[:, None] * u])
+        return shapely.simplify(shapely.polygons(ring), tolerance_m)
 
 
 def visibility(

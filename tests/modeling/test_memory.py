@@ -312,3 +312,42 @@ def test_a_critical_regions_width_std_narrows_as_views_accumulate() -> None:
         stds.append(region.width_std_m)
     assert np.all(np.diff(stds) < 0)
     assert stds[-1] < 0.5 * stds[0]
+
+
+def test_a_new_ambiguity_coinciding_with_a_remembered_segment_is_reweighted_or_absorbed() -> None:
+    wall = seg((4.0, -0.5), (4.0, 0.5))
+    memory = fuse(fuse(ModelMemory.empty(), view((wall,))), view((wall,)))
+    e = posterior(0.5, HIT)
+    assert memory.existence == pytest.approx((e,), abs=1e-12)
+    ghost = seg((2.5, -0.3), (2.5, 0.3))  # the wrong disparity, nearer
+    for q, absorbed in ((0.5, False), (0.6, True)):
+        amb = AmbiguousSegment(candidates=(wall, ghost), probabilities=(q, 1 - q))
+        later = fuse(memory, view(ambiguous=(amb,), at=(0.0, 0.0, 0.0)))
+        w_wall, w_ghost = q * (1 + e * (HIT - 1)), 1 - q
+        assert (
+            w_wall / (w_wall + w_ghost) >= 0.95 if absorbed else w_wall / (w_wall + w_ghost) < 0.95
+        )
+        assert later.existence == pytest.approx((posterior(e, 1 + q * (HIT - 1)),), abs=1e-12)
+        assert len(later.segments) == 1
+        if absorbed:
+            assert later.ambiguous == ()
+            P = np.linalg.inv(3 * np.linalg.inv(wall.cov[0]))  # the wall's Gaussian, three times
+            np.testing.assert_allclose(later.segments[0].cov[0], P, atol=1e-12)
+        else:
+            (open_,) = later.ambiguous
+            total = w_wall + w_ghost
+            assert open_.probabilities == pytest.approx(
+                (w_wall / total, w_ghost / total), abs=1e-12
+            )
+
+
+def test_a_resolved_candidate_coinciding_with_a_remembered_segment_fuses_into_it() -> None:
+    true, false = seg((4.0, 0.5), (4.0, 1.0)), seg((6.0, 0.75), (6.0, 1.4))
+    amb = AmbiguousSegment(candidates=(true, false), probabilities=(0.5, 0.5))
+    # the ambiguity first, then its true edge unambiguously from a view that misses the false
+    # candidate's place; then from the side
+    memory = fuse(ModelMemory.empty(), view(ambiguous=(amb,)))
+    side = fuse(memory, view((true,), at=(4.0, -3.0, math.pi / 2)))
+    assert side.ambiguous == () and len(side.segments) == 1
+    again = fuse(side, view((true,), at=(4.0, -3.0, math.pi / 2)))
+    assert len(again.segments) == 1
