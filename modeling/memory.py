@@ -29,10 +29,15 @@ environment using data from a sequence of observations"). :func:`fuse` folds one
    new unambiguous segment coincides with it, ``1 + q_j (pd / pf - 1)`` when candidate ``j``
    (probability ``q_j``) of the new ambiguous segment does, ``(1 - pd) / (1 - pf)`` when it lies
    in the floor seen free and nothing coincides, 1 otherwise. A candidate whose posterior reaches
-   ``resolve_probability`` becomes an ordinary segment (existence: its posterior); when the none
-   mass does, the ambiguity goes. Candidates below ``min_candidate_probability`` are pruned
-   (at least two stay) and their mass renormalised. Unassociated new ambiguities enter as they
-   are (their ``p_none`` raised to ``none_prior`` when that is above it).
+   ``resolve_probability`` becomes an ordinary segment (existence: its posterior; fused into
+   a remembered segment it coincides with); when the none mass does, the ambiguity goes.
+   Candidates below ``min_candidate_probability`` are pruned (two stay while the none mass is 0,
+   one otherwise) and the rest renormalised. A new ambiguity that matches no remembered one
+   enters with its ``p_none`` raised to ``none_prior``, re-weighted by the remembered segments
+   its candidates coincide with (:func:`~modeling.memory_ambiguity.explain_new`: candidate ``j``
+   on a segment of existence ``e`` by ``1 + e (pd / pf - 1)``, the segment by
+   ``1 + q_j (pd / pf - 1)``); when that resolves it to such a candidate, it is that segment
+   seen again and fuses into it.
 4. **Seen floor**: :attr:`ModelMemory.seen` is the union of every view's visible area (one
    shapely geometry, simplified to ``seen_tolerance_m`` and coarser while it has more than
    ``max_seen_vertices`` vertices); floor never seen is unknown (:meth:`ModelMemory.unknown`).
@@ -105,9 +110,12 @@ class MemoryOptions:
         max_existence: Existence is capped here, in (initial_existence, 1).
         resolve_probability: A candidate (or the none mass) at least this probable resolves its
             ambiguity, in (0.5, 1).
-        min_candidate_probability: Candidates below this are pruned (two always stay), in [0, 0.5).
+        min_candidate_probability: Candidates below this are pruned (two stay while
+            ``p_none`` is 0, one otherwise), in [0, 0.5).
         none_prior: A new ambiguity's ``p_none`` is raised to at least this (its candidates
-            scaled down), in [0, 1).
+            scaled down), in [0, 1). A new ambiguity may be a false match altogether; with the
+            default (the false-match rate) one whose every candidate is seen free goes after
+            four such views (with 0 it would stay until the bound drops it).
         max_segments: At most this many remembered segments (>= 1).
         max_ambiguous: At most this many open ambiguities (>= 0).
         max_contacts: At most this many contacts (>= 0).
@@ -134,7 +142,7 @@ class MemoryOptions:
     max_existence: float = 0.999
     resolve_probability: float = 0.95
     min_candidate_probability: float = 0.01
-    none_prior: float = 0.0
+    none_prior: float = 0.05
     max_segments: int = 400
     max_ambiguous: int = 64
     max_contacts: int = 64
@@ -432,7 +440,7 @@ def fuse(
     ambiguous = amb.ambiguous + tuple(fresh.ambiguous)
     amb_seen = amb.seen + (view,) * len(fresh.ambiguous)
     if len(ambiguous) > opts.max_ambiguous:
-        none = np.array([1.0 - sum(a.probabilities) for a in ambiguous])
+        none = np.array([a.p_none for a in ambiguous])
         kept = _keep_bounded(
             len(ambiguous), opts.max_ambiguous, (-none, np.asarray(amb_seen, dtype=np.int64))
         ).tolist()

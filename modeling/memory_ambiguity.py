@@ -18,6 +18,7 @@ Frames: world, metres; covariances m^2.
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -31,7 +32,7 @@ from modeling.memory_association import (
     stack_of,
     subset,
 )
-from modeling.observation import AmbiguousSegment, FloorSegment
+from modeling.observation import P_NONE_ATOL, AmbiguousSegment, FloorSegment
 from modeling.validation import FloatArray
 
 __all__ = [
@@ -45,8 +46,6 @@ __all__ = [
     "reweight",
     "trusted_ambiguous",
 ]
-
-_SUM_ATOL = 1e-6
 
 
 class Candidates(NamedTuple):
@@ -213,9 +212,9 @@ def posterior(
     opts: Any,
 ) -> AmbiguousSegment | tuple[FloorSegment, float] | None:
     """One ambiguity after the evidence ``ratios`` (one likelihood ratio per candidate, against
-    "none"): the open ambiguity (candidates below ``min_candidate_probability`` pruned, two
-    kept), or ``(candidate, posterior)`` when one reaches ``resolve_probability``, or None when
-    the none mass does."""
+    "none"): the open ambiguity (candidates below ``min_candidate_probability`` pruned; two
+    kept when the none mass is 0, one otherwise), or ``(candidate, posterior)`` when one reaches
+    ``resolve_probability``, or None when the none mass does."""
     p = np.array(probabilities) * np.array(ratios)
     none = none_mass(probabilities)
     total = float(p.sum()) + none
@@ -226,8 +225,9 @@ def posterior(
     if none >= opts.resolve_probability:
         return None
     order = np.argsort(-p, kind="stable")
+    least = 2 if none <= P_NONE_ATOL else 1
     keep = np.sort(
-        order[(p[order] >= opts.min_candidate_probability) | (np.arange(p.shape[0]) < 2)]
+        order[(p[order] >= opts.min_candidate_probability) | (np.arange(p.shape[0]) < least)]
     )
     if keep.shape[0] < p.shape[0]:
         total = float(p[keep].sum()) + none
@@ -341,7 +341,8 @@ def trusted_ambiguous(
     candidates: tuple[FloorSegment, ...], probabilities: list[float]
 ) -> AmbiguousSegment:
     """An :class:`~modeling.observation.AmbiguousSegment` of a posterior computed here (at least
-    two candidates; probabilities in [0, 1] summing to at most 1 by construction), made without
+    two candidates, or one with a none mass; probabilities in [0, 1] summing to at most 1 by
+    construction), made without
     its validation (the memory re-weights every ambiguity in view at every step)."""
     amb: AmbiguousSegment = object.__new__(AmbiguousSegment)
     object.__setattr__(amb, "candidates", candidates)
@@ -352,11 +353,11 @@ def trusted_ambiguous(
 
 
 def none_mass(probabilities: list[float] | tuple[float, ...]) -> float:
-    """``p_none = 1 - sum(probabilities)``, 0 when within the 1e-6 to which
-    :class:`~modeling.observation.AmbiguousSegment` checks a sum of 1 (rounding is no evidence:
-    it would grow by Bayes' rule while every candidate is seen free)."""
-    rest = 1.0 - sum(probabilities)
-    return rest if rest > _SUM_ATOL else 0.0
+    """``p_none = 1 - sum(probabilities)``, 0 below :data:`~modeling.observation.P_NONE_ATOL`
+    (as :attr:`~modeling.observation.AmbiguousSegment.p_none`: rounding is no evidence, and it
+    would grow by Bayes' rule while every candidate is seen free)."""
+    rest = 1.0 - math.fsum(probabilities)
+    return rest if rest > P_NONE_ATOL else 0.0
 
 
 def _with_none_prior(amb: AmbiguousSegment, none_prior: float) -> AmbiguousSegment:

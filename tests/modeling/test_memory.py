@@ -23,6 +23,7 @@ from modeling import (
 
 PD, PF = 0.8, 0.05  # the default detection probability and false-match rate
 HIT, MISS = PD / PF, (1 - PD) / (1 - PF)  # the likelihood ratios of a detection and of a miss
+NONE = 0.05  # the default none prior: a new ambiguity's candidates are scaled to 1 - NONE
 
 
 def seg(a: ArrayLike, b: ArrayLike, cov: np.ndarray | None = None) -> FloorSegment:
@@ -73,7 +74,8 @@ def test_an_ambiguity_seen_from_a_separating_viewpoint_resolves_to_the_true_cand
     vis_side = fuse(memory, view((again,), at=side))
     assert vis_side.ambiguous == ()
     assert len(vis_side.segments) == 1
-    p_true = 0.5 * HIT / (0.5 * HIT + 0.5 * MISS)
+    q = 0.5 * (1 - NONE)
+    p_true = q * HIT / (q * HIT + q * MISS + NONE)
     assert vis_side.existence == pytest.approx((p_true,), abs=1e-12)
     got = vis_side.segments[0]
     i1, i2 = np.linalg.inv(true.cov[0]), np.linalg.inv(again.cov[0])
@@ -99,11 +101,11 @@ def test_a_candidate_matched_by_a_new_ambiguous_one_gains_by_its_probability() -
     )
     later = fuse(memory, view(ambiguous=(amb,), at=(4.0, -3.0, math.pi / 2 + 0.45)))
     assert len(later.ambiguous) == 1 and later.segments == ()
-    w_true, w_false = 0.5 * (1 + 0.7 * (HIT - 1)), 0.5
-    got = later.ambiguous[0].probabilities
-    assert got == pytest.approx(
-        (w_true / (w_true + w_false), w_false / (w_true + w_false)), abs=1e-12
-    )
+    w_true, w_false = 0.5 * (1 - NONE) * (1 + 0.7 * (HIT - 1)), 0.5 * (1 - NONE)
+    total = w_true + w_false + NONE
+    got = later.ambiguous[0]
+    assert got.probabilities == pytest.approx((w_true / total, w_false / total), abs=1e-12)
+    assert got.p_none == pytest.approx(NONE / total, abs=1e-12)
     assert later.ambiguous_seen == (2,)
 
 
@@ -323,10 +325,9 @@ def test_a_new_ambiguity_coinciding_with_a_remembered_segment_is_reweighted_or_a
     for q, absorbed in ((0.5, False), (0.6, True)):
         amb = AmbiguousSegment(candidates=(wall, ghost), probabilities=(q, 1 - q))
         later = fuse(memory, view(ambiguous=(amb,), at=(0.0, 0.0, 0.0)))
-        w_wall, w_ghost = q * (1 + e * (HIT - 1)), 1 - q
-        assert (
-            w_wall / (w_wall + w_ghost) >= 0.95 if absorbed else w_wall / (w_wall + w_ghost) < 0.95
-        )
+        w_wall, w_ghost = (1 - NONE) * q * (1 + e * (HIT - 1)), (1 - NONE) * (1 - q)
+        p_wall = w_wall / (w_wall + w_ghost + NONE)
+        assert (p_wall >= 0.95) == absorbed
         assert later.existence == pytest.approx((posterior(e, 1 + q * (HIT - 1)),), abs=1e-12)
         assert len(later.segments) == 1
         if absorbed:
@@ -335,10 +336,11 @@ def test_a_new_ambiguity_coinciding_with_a_remembered_segment_is_reweighted_or_a
             np.testing.assert_allclose(later.segments[0].cov[0], P, atol=1e-12)
         else:
             (open_,) = later.ambiguous
-            total = w_wall + w_ghost
+            total = w_wall + w_ghost + NONE
             assert open_.probabilities == pytest.approx(
                 (w_wall / total, w_ghost / total), abs=1e-12
             )
+            assert open_.p_none == pytest.approx(NONE / total, abs=1e-12)
 
 
 def test_a_resolved_candidate_coinciding_with_a_remembered_segment_fuses_into_it() -> None:
@@ -351,3 +353,46 @@ def test_a_resolved_candidate_coinciding_with_a_remembered_segment_fuses_into_it
     assert side.ambiguous == () and len(side.segments) == 1
     again = fuse(side, view((true,), at=(4.0, -3.0, math.pi / 2)))
     assert len(again.segments) == 1
+
+
+def test_p_none_is_respected_and_resolves_when_every_candidate_is_seen_free() -> None:
+    a, b = seg((3.0, -0.4), (3.0, -0.1)), seg((4.0, 0.2), (4.0, 0.5))
+    amb = AmbiguousSegment(candidates=(a, b), probabilities=(0.4, 0.3))  # p_none 0.3
+    memory = fuse(ModelMemory.empty(), view(ambiguous=(amb,)))
+    assert memory.ambiguous[0].probabilities == (0.4, 0.3)  # above the none prior: as it is
+    p, none = np.array([0.4, 0.3]), 0.3
+    for _ in range(3):  # both places seen free again and again, nothing there
+        memory = fuse(memory, view())
+        p, none = p * MISS, none
+        p, none = p / (p.sum() + none), none / (p.sum() + none)
+        if none >= 0.95:
+            break
+        assert memory.ambiguous[0].probabilities == pytest.approx(tuple(p), abs=1e-12)
+        assert memory.ambiguous[0].p_none == pytest.approx(none, abs=1e-12)
+    assert none >= 0.95 and memory.ambiguous == ()
+    assert build_memory_model(memory, 0.5).most_probable.obstacles == ()
+
+
+def test_a_single_candidate_with_p_none_seen_again_becomes_a_segment() -> None:
+    a = seg((3.0, -0.4), (3.0, -0.1))
+    amb = AmbiguousSegment(candidates=(a,), probabilities=(0.6,))
+    memory = fuse(ModelMemory.empty(), view(ambiguous=(amb,)))
+    assert len(memory.ambiguous) == 1 and memory.segments == ()
+    later = fuse(memory, view((a,)))
+    assert later.ambiguous == ()
+    assert later.existence == pytest.approx((0.6 * HIT / (0.6 * HIT + 0.4),), abs=1e-12)
+
+
+def test_a_candidate_below_the_pruning_threshold_goes_one_stays_with_p_none() -> None:
+    a, b = seg((3.0, -0.4), (3.0, -0.1)), seg((3.5, 0.8), (3.5, 1.0))
+    amb = AmbiguousSegment(candidates=(a, b), probabilities=(0.5, 0.3))  # p_none 0.2
+    memory = fuse(ModelMemory.empty(), view(ambiguous=(amb,)))
+    # a seen free (in view), b hidden behind a wall that the new view sees
+    wall = seg((2.5, 0.5), (2.5, 1.5))
+    later = fuse(memory, view((wall,)), min_candidate_probability=0.4)
+    w_a, w_b, none = 0.5 * MISS, 0.3, 0.2
+    (open_,) = later.ambiguous
+    assert len(open_.candidates) == 1
+    np.testing.assert_array_equal(open_.candidates[0].endpoints, b.endpoints)
+    assert open_.probabilities == pytest.approx((w_b / (w_b + none),), abs=1e-12)
+    assert w_a / (w_a + w_b + none) < 0.4
