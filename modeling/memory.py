@@ -17,8 +17,10 @@ environment using data from a sequence of observations"). :func:`fuse` folds one
    ``false_match_rate``); lying in the floor the new view sees free and not detected
    ``(1 - pd) / (1 - pf)``; otherwise 1 (unchanged). A segment is seen free when its two
    endpoints and its midpoint are (:mod:`modeling.memory_visibility`: in the field of view, in
-   range, beyond ``near_range_m``, at least ``free_margin_m`` short of what the view sees along
-   that ray; the occluders are the new view's segments and all its candidates). Below
+   range, beyond ``near_range_m`` and below the image's lower edge (``head_height_m``,
+   ``half_vfov_rad``, at the segment's top height), at least ``free_margin_m`` short of what
+   the view sees along that ray; the occluders are the new view's segments and all its
+   candidates). Below
    ``min_existence`` a segment is forgotten; existence is capped at ``max_existence`` so that
    enough contrary evidence always fades a segment.
 3. **Ambiguity**: a new ambiguous segment is associated with the remembered ambiguity whose
@@ -123,6 +125,14 @@ class MemoryOptions:
             metres (>= 0).
         near_range_m: Floor nearer than this to the viewpoint is not seen (it is out of the
             image), metres (>= 0).
+        head_height_m: Height of the camera above the floor, metres (>= 0; 0: no vertical
+            limit). With it, a point of height ``h`` nearer than ``(head_height_m - h) /
+            tan(half_vfov_rad)`` is below the image: a segment is judged at its top height (a low
+            box close to the robot is out of view, a tall shelf is not), the floor at 0. For
+            the env's level head: 0.8 m and ``atan(120 / 256)`` = 0.43 rad (the floor seen from
+            1.7 m); a tilted head needs the limit of its lower image edge.
+        half_vfov_rad: Half the vertical field of view below the optical axis, radians, in
+            (0, pi/2).
         n_rays: Rays of the visibility sweep across the field of view (>= 3).
         seen_tolerance_m: Simplification tolerance of the seen floor, metres (> 0).
         max_seen_vertices: The seen floor is simplified more coarsely while it has more vertices
@@ -148,6 +158,8 @@ class MemoryOptions:
     max_contacts: int = 64
     free_margin_m: float = 0.1
     near_range_m: float = 0.0
+    head_height_m: float = 0.0
+    half_vfov_rad: float = 0.43
     n_rays: int = 181
     seen_tolerance_m: float = 0.05
     max_seen_vertices: int = 2000
@@ -189,7 +201,8 @@ class MemoryOptions:
             ("max_seen_vertices", 16),
         ):
             object.__setattr__(self, name, integer(getattr(self, name), name, low=low))
-        for name in ("free_margin_m", "near_range_m", "contact_merge_m"):
+        unit("half_vfov_rad", high=math.pi / 2)
+        for name in ("free_margin_m", "near_range_m", "contact_merge_m", "head_height_m"):
             object.__setattr__(self, name, positive(getattr(self, name), name, allow_zero=True))
         for name in ("seen_tolerance_m", "contact_length_m", "contact_sigma_m"):
             object.__setattr__(self, name, positive(getattr(self, name), name))
@@ -293,13 +306,29 @@ class ModelMemory:
 
 
 # ------------------------------------------------------------------------------- fusion
-def _seen_free(vis: Visibility, ends: FloatArray, margin_m: float) -> np.ndarray:
-    """(n,) bool: both endpoints and the midpoint of each segment (n, 2, 2) are seen free."""
+def _near_limit(opts: MemoryOptions, top_m: FloatArray | float) -> FloatArray:
+    """The distance (metres) within which a point of height ``top_m`` is out of the image: the
+    camera's depression limit ``(head_height_m - top) / tan(half_vfov_rad)`` (none when
+    ``head_height_m`` is 0), at least ``near_range_m``."""
+    top = np.asarray(top_m, dtype=np.float64)
+    if opts.head_height_m <= 0.0:
+        return np.full(top.shape, opts.near_range_m)
+    out: FloatArray = np.maximum(
+        opts.near_range_m, (opts.head_height_m - top) / math.tan(opts.half_vfov_rad)
+    )
+    return out
+
+
+def _seen_free(vis: Visibility, segs: SegmentStack, opts: MemoryOptions) -> np.ndarray:
+    """(n,) bool: both endpoints and the midpoint of each segment are seen free, each judged
+    at the segment's top height (the part of an obstacle that could be seen)."""
+    ends = segs.ends
     n = ends.shape[0]
     if n == 0:
         return np.zeros(0, dtype=bool)
     pts = np.concatenate([ends[:, 0], ends[:, 1], ends.mean(axis=1)])
-    out: np.ndarray = np.all(vis.seen_free(pts, margin_m).reshape(3, n), axis=0)
+    near = np.tile(_near_limit(opts, segs.heights.max(axis=1)), 3)
+    out: np.ndarray = np.all(vis.seen_free(pts, opts.free_margin_m, near).reshape(3, n), axis=0)
     return out
 
 
@@ -353,7 +382,8 @@ def fuse(
     new = stack_of(observation.segments)
     new_cands = candidates_of(observation.ambiguous)
     occluders = np.concatenate([new.ends, new_cands.stack.ends])
-    vis = visibility(observation, occluders, n_rays=opts.n_rays, near_m=opts.near_range_m)
+    floor_near = float(_near_limit(opts, 0.0))
+    vis = visibility(observation, occluders, n_rays=opts.n_rays, near_m=floor_near)
 
     # 1. Association of the new unambiguous segments with the remembered ones; fusion.
     mem = memory.segment_arrays
@@ -376,7 +406,7 @@ def fuse(
         take(new, rest),
         observation.ambiguous,
         new_cands,
-        lambda ends: _seen_free(vis, ends, opts.free_margin_m),
+        lambda segs: _seen_free(vis, segs, opts),
         opts=opts,
         view=view,
     )
@@ -393,7 +423,7 @@ def fuse(
     detected[pairs.cols] = True
     touched = detected | (fresh.segment_ratio != 1.0)  # absorbed ones among them
     ratio = np.where(detected, pd / pf, 1.0)
-    ratio[~touched & _seen_free(vis, mem.ends, opts.free_margin_m)] = (1.0 - pd) / (1.0 - pf)
+    ratio[~touched & _seen_free(vis, mem, opts)] = (1.0 - pd) / (1.0 - pf)
     existence = odds_update(prior, ratio * fresh.segment_ratio, opts.max_existence)
     last_seen = np.where(touched, view, np.asarray(memory.last_seen, dtype=np.int64))
     # 4. Resolved candidates: a remembered segment seen again when they coincide with one, new

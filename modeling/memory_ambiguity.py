@@ -133,7 +133,7 @@ def reweight(
         new_segments: The new view's unambiguous segments that matched no remembered segment.
         new_ambiguous: The new view's ambiguous segments.
         new: Their candidates (:func:`candidates_of`).
-        vis_free: A function (n, 2, 2) ends -> (n,) bool, "seen free by the new view".
+        vis_free: A function :class:`SegmentStack` -> (n,) bool, "seen free by the new view".
         opts: The :class:`~modeling.memory.MemoryOptions`.
         view: The number of the new view (1-based).
     """
@@ -170,7 +170,7 @@ def reweight(
         touched[cand_pairs.cols] = True
     # (c) candidates in the floor seen free, not detected
     if n_mem:
-        free = ~touched & vis_free(mem.stack.ends)
+        free = ~touched & vis_free(mem.stack)
         ratio[free] = (1.0 - pd) / (1.0 - pf)
     # (d) the posterior of each remembered ambiguity; resolution; pruning
     out: list[AmbiguousSegment] = []
@@ -235,6 +235,14 @@ def posterior(
     return trusted_ambiguous(tuple(candidates[i] for i in keep.tolist()), p[keep].tolist())
 
 
+_NO_PAIRS = Association(
+    rows=np.zeros(0, dtype=np.int64),
+    cols=np.zeros(0, dtype=np.int64),
+    d2=np.zeros(0),
+    swapped=np.zeros(0, dtype=bool),
+)
+
+
 class NewAmbiguities(NamedTuple):
     """The new view's ambiguities that matched no remembered one, against the remembered
     segments.
@@ -276,6 +284,10 @@ def explain_new(
     new = update.new_candidates
     n_seg = segments.ends.shape[0]
     ratio_seg = np.ones(n_seg)
+    if update.new_unmatched.shape[0] == 0:
+        return NewAmbiguities(
+            ambiguous=[], resolved=[], absorbed=_NO_PAIRS, segment_ratio=ratio_seg
+        )
     partner = np.full(len(new.segments), -1, dtype=np.int64)
     open_new = np.zeros(len(new_ambiguous), dtype=bool)
     open_new[update.new_unmatched] = True
@@ -366,6 +378,4 @@ def _with_none_prior(amb: AmbiguousSegment, none_prior: float) -> AmbiguousSegme
     if 1.0 - total >= none_prior:
         return amb
     scale = (1.0 - none_prior) / total
-    return AmbiguousSegment(
-        candidates=amb.candidates, probabilities=tuple(p * scale for p in amb.probabilities)
-    )
+    return trusted_ambiguous(amb.candidates, [p * scale for p in amb.probabilities])

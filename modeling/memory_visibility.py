@@ -47,9 +47,12 @@ class Visibility(NamedTuple):
     reach: FloatArray
     near_m: float
 
-    def seen_free(self, points: FloatArray, margin_m: float) -> np.ndarray:
+    def seen_free(
+        self, points: FloatArray, margin_m: float, near_m: FloatArray | None = None
+    ) -> np.ndarray:
         """(k,) bool: each of ``points`` (k, 2), world metres, is seen free by this view (in the
-        wedge, beyond ``near_m``, at least ``margin_m`` short of its ray's hit)."""
+        wedge, beyond ``near_m`` (k,) or this view's ``near_m``, at least ``margin_m`` short of
+        its ray's hit)."""
         rel = np.asarray(points, dtype=np.float64).reshape(-1, 2) - self.origin
         dist = np.hypot(rel[:, 0], rel[:, 1])
         ang = wrap_angle(np.arctan2(rel[:, 1], rel[:, 0]) - self.heading)
@@ -58,7 +61,7 @@ class Visibility(NamedTuple):
         k = np.clip(np.rint((ang + self.half_fov) / step), 0, n - 1).astype(np.int64)
         out: np.ndarray = (
             (np.abs(ang) <= self.half_fov)
-            & (dist > self.near_m)
+            & (dist > (self.near_m if near_m is None else near_m))
             & (dist < self.reach[k] - margin_m)
         )
         return out

@@ -140,6 +140,28 @@ def test_the_near_blind_zone_is_not_seen_free() -> None:
     assert fuse(memory, view()).existence == pytest.approx((posterior(0.5, MISS),))
 
 
+def test_a_low_segment_below_the_image_is_not_seen_free_a_tall_one_is() -> None:
+    low = FloorSegment(
+        endpoints=np.array([[1.0, -0.1], [1.0, 0.1]]),
+        cov=np.tile(np.eye(2) * 1e-4, (2, 1, 1)),
+        height_m=np.array([0.0, 0.2]),
+    )
+    tall = FloorSegment(
+        endpoints=np.array([[1.0, 0.3], [1.0, 0.45]]),
+        cov=np.tile(np.eye(2) * 1e-4, (2, 1, 1)),
+        height_m=np.array([0.0, 0.75]),
+    )
+    level_head = {"head_height_m": 0.8, "half_vfov_rad": math.atan(120 / 256)}
+    memory = fuse(ModelMemory.empty(), view((low, tall)), **level_head)
+    later = fuse(memory, view(), **level_head)
+    # the low box's top (0.2 m) is in the image from 1.28 m on, the tall one's from 0.11 m
+    assert later.existence == pytest.approx((0.5, posterior(0.5, MISS)), abs=1e-12)
+    # the floor is in the image from 0.8 / tan(25 deg) = 1.71 m on
+    unknown = later.unknown(shapely.box(-1, -3, 9, 3))
+    assert unknown.contains(shapely.Point(1.5, 0.0))
+    assert not unknown.contains(shapely.Point(1.9, 0.0))
+
+
 def test_memory_size_stays_bounded_over_500_steps() -> None:
     rng = np.random.default_rng(16)
     opts = MemoryOptions(max_segments=120, max_ambiguous=10, max_contacts=5, max_seen_vertices=400)
@@ -220,6 +242,8 @@ def test_fuse_is_deterministic_and_does_not_mutate_its_inputs() -> None:
         ("free_margin_m", -0.1),
         ("seen_tolerance_m", 0.0),
         ("contact_length_m", math.nan),
+        ("half_vfov_rad", 2.0),
+        ("head_height_m", -0.8),
     ],
 )
 def test_bad_options_raise_naming_the_field(field: str, value: float) -> None:
