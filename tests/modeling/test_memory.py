@@ -4,10 +4,12 @@ ambiguity re-weighting, contacts, bounds."""
 from __future__ import annotations
 
 import math
+import pickle
 
 import numpy as np
 import pytest
 import shapely
+import shapely.affinity
 from numpy.typing import ArrayLike
 
 from modeling import (
@@ -420,3 +422,45 @@ def test_a_candidate_below_the_pruning_threshold_goes_one_stays_with_p_none() ->
     np.testing.assert_array_equal(open_.candidates[0].endpoints, b.endpoints)
     assert open_.probabilities == pytest.approx((w_b / (w_b + none),), abs=1e-12)
     assert w_a / (w_a + w_b + none) < 0.4
+
+
+def test_fuse_commutes_with_a_rigid_motion() -> None:
+    rng = np.random.default_rng(7)
+    pts = rng.uniform([2, -2], [6, 2], size=(12, 2))
+    segs = tuple(seg(p, p + np.array([0.3, 0.1])) for p in pts)
+    amb = AmbiguousSegment(
+        candidates=(seg((3.0, 0.2), (3.0, 0.6)), seg((5.0, 0.4), (5.0, 1.1))),
+        probabilities=(0.6, 0.3),
+    )
+    views = [
+        view(segs, (amb,)),
+        view(segs[:8], at=(0.5, 0.2, 0.15)),
+        view(segs[4:], (amb,), at=(1.0, -0.3, -0.2)),
+    ]
+    angle, shift = 0.7, np.array([3.0, -1.5])
+    plain, moved = ModelMemory.empty(), ModelMemory.empty()
+    for obs in views:
+        plain, moved = fuse(plain, obs), fuse(moved, obs.transformed(angle, shift))
+    c, s = math.cos(angle), math.sin(angle)
+    R = np.array([[c, -s], [s, c]])
+    assert moved.existence == pytest.approx(plain.existence, abs=1e-9)
+    assert len(moved.ambiguous) == len(plain.ambiguous)
+    for a, b in zip(plain.segments, moved.segments, strict=True):
+        np.testing.assert_allclose(b.endpoints, a.endpoints @ R.T + shift, atol=1e-9)
+        np.testing.assert_allclose(b.cov, R @ a.cov @ R.T, atol=1e-12)
+    for a, b in zip(plain.ambiguous, moved.ambiguous, strict=True):
+        assert b.probabilities == pytest.approx(a.probabilities, abs=1e-9)
+    area = shapely.affinity.translate(
+        shapely.affinity.rotate(plain.seen, angle, (0, 0), True), *shift
+    )
+    assert shapely.symmetric_difference(area, moved.seen).area < 1e-3 * plain.seen.area
+
+
+def test_a_memory_survives_a_pickle_round_trip() -> None:
+    memory = fuse(ModelMemory.empty(), view((seg((3.0, -0.5), (3.0, 0.5)),)))
+    memory = add_contact(memory, (1.0, 0.0), (1.0, 0.0), height_m=0.3)
+    back = pickle.loads(pickle.dumps(memory))
+    assert back.existence == memory.existence and back.views == memory.views
+    np.testing.assert_array_equal(back.segments[0].cov, memory.segments[0].cov)
+    assert shapely.equals_exact(back.seen, memory.seen, 0.0)
+    assert fuse(back, view()).existence == fuse(memory, view()).existence
