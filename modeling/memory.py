@@ -481,7 +481,7 @@ def fuse(
         existence=tuple(all_existence[keep].tolist()),
         ambiguous=ambiguous,
         contacts=memory.contacts,
-        seen=_seen_union(memory.seen, vis.polygon(opts.seen_tolerance_m), opts),
+        seen=_seen_union(memory.seen, vis.polygon(), opts),
         viewpoint=observation.viewpoint,
         fov_rad=observation.fov_rad,
         max_range_m=observation.max_range_m,
