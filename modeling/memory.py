@@ -252,6 +252,11 @@ class ModelMemory:
 
     def __post_init__(self) -> None:
         n = len(self.segments)
+        for name in ("segments", "contacts"):
+            if not all(isinstance(s, FloorSegment) for s in getattr(self, name)):
+                raise ValueError(f"{name} must all be FloorSegment instances")
+        if not all(isinstance(a, AmbiguousSegment) for a in self.ambiguous):
+            raise ValueError("ambiguous must all be AmbiguousSegment instances")
         if self.segment_arrays is None:
             object.__setattr__(self, "segment_arrays", stack_of(self.segments))
         elif self.segment_arrays.ends.shape[0] != n:
