@@ -33,6 +33,12 @@ are always present.
   the robot, else 0) over the ``gaps_scored`` gaps: 0 is perfect, 0.25 is a coin toss.
 * ``situations``, ``residual_probability``: the model's count of situations and its left-out mass.
 
+The env gives the same figures of the fused model (:func:`modeling.memory.build_memory_model`,
+``info["memory_model"]``) beside these, named ``memory_<name>`` (``memory_passability_brier``,
+``memory_p_true_candidate``, ``memory_coverage_95``, ...): its fused segments and the candidates
+of the ambiguities still open, against the same true outlines; its gaps scored are those in the
+latest view, as for the single view.
+
 Everything is vectorised over endpoints and outline edges; the ground truth that does not change
 within an episode is prepared once per scene by :meth:`GroundTruth.of`.
 """
@@ -294,20 +300,25 @@ def _gap_figures(model: EnvironmentModel, truth: GroundTruth) -> dict[str, float
     }
 
 
-def model_diagnostics(model: EnvironmentModel, truth: GroundTruth) -> dict[str, float]:
+def model_diagnostics(
+    model: EnvironmentModel, truth: GroundTruth, *, prefix: str = ""
+) -> dict[str, float]:
     """``info["diagnostics"]``: the figures of the module docstring, keyed by name.
 
     Args:
-        model: The model of the latest observation.
+        model: The model of the latest observation (or the fused model of the episode's views:
+            its segments and candidates are measured alike, and its gaps in the latest view).
         truth: The scene's ground truth (:meth:`GroundTruth.of`).
+        prefix: Put before every name (the env gives the fused model's figures as
+            ``memory_<name>``).
 
     Returns:
-        A new dict of floats keyed by the names of :data:`DIAGNOSTIC_NAMES`, in that order,
-        without the figures that have nothing to measure (see the module docstring).
+        A new dict of floats keyed by ``prefix`` + the names of :data:`DIAGNOSTIC_NAMES`, in that
+        order, without the figures that have nothing to measure (see the module docstring).
     """
     out: dict[str, float] = {}
     out.update(_outline_figures(model, truth))
     out.update(_gap_figures(model, truth))
     out["situations"] = float(len(model.situations))
     out["residual_probability"] = float(model.residual_probability)
-    return {name: out[name] for name in DIAGNOSTIC_NAMES if not math.isnan(out[name])}
+    return {prefix + name: out[name] for name in DIAGNOSTIC_NAMES if not math.isnan(out[name])}
