@@ -41,6 +41,11 @@ _EXPORTS: dict[str, str] = {
     "CriticalRegion": "modeling.records",
     "Passage": "modeling.records",
     "model_from_stereo": "modeling.pipeline",
+    "MemoryOptions": "modeling.memory",
+    "ModelMemory": "modeling.memory",
+    "fuse": "modeling.memory",
+    "add_contact": "modeling.memory",
+    "build_memory_model": "modeling.memory",
 }
 
 __all__ = [
@@ -53,6 +58,8 @@ __all__ = [
     "HeadPose",
     "ImageSegments",
     "MatchOptions",
+    "MemoryOptions",
+    "ModelMemory",
     "ModelOptions",
     "Obstacle",
     "Passage",
@@ -62,11 +69,14 @@ __all__ = [
     "StereoMatches",
     "StereoRig",
     "TriangulationOptions",
+    "add_contact",
+    "build_memory_model",
     "build_model",
     "classify_gap",
     "close_faces",
     "extract_segment_pair",
     "extract_segments",
+    "fuse",
     "gap_passable_probability",
     "match_segments",
     "model_from_stereo",
@@ -77,6 +87,13 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from modeling.faces import FaceOptions, close_faces
     from modeling.gaps import Relation, classify_gap, gap_passable_probability
     from modeling.matching import MatchOptions, StereoMatches, match_segments
+    from modeling.memory import (
+        MemoryOptions,
+        ModelMemory,
+        add_contact,
+        build_memory_model,
+        fuse,
+    )
     from modeling.model import ModelOptions, build_model
     from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
     from modeling.pipeline import model_from_stereo

@@ -1,0 +1,484 @@
+"""A world-frame model memory fused over observations (issue 16; the step named in section 6).
+
+The paper models one view and leaves the integration over a sequence of observations as future
+work ("it is also necessary to extend the proposed method so that it can incrementally model the
+environment using data from a sequence of observations"). :func:`fuse` folds one
+:class:`~modeling.observation.FloorObservation` into a :class:`ModelMemory`:
+
+1. **Association** (:mod:`modeling.memory_association`): each new unambiguous segment is paired
+   with a remembered one by a chi-square gate on the 4-dof endpoint difference (both orders),
+   one-to-one (:func:`scipy.optimize.linear_sum_assignment`); a pair fuses as the product of the
+   endpoint Gaussians. A new segment that matches no remembered segment but a candidate of a
+   remembered ambiguity is evidence for that candidate (and fuses into it); any other enters as a
+   new segment with ``initial_existence``. Only the endpoint gate is used: a longer or shorter
+   piece of a remembered edge enters as a segment of its own.
+2. **Existence**: every remembered segment carries ``P(real)``, updated by Bayes in odds form
+   with the likelihood ratio of the evidence: seen again ``pd / pf`` (``detection_probability``,
+   ``false_match_rate``); lying in the floor the new view sees free and not detected
+   ``(1 - pd) / (1 - pf)``; otherwise 1 (unchanged). A segment is seen free when its two
+   endpoints and its midpoint are (:mod:`modeling.memory_visibility`: in the field of view, in
+   range, beyond ``near_range_m``, at least ``free_margin_m`` short of what the view sees along
+   that ray; the occluders are the new view's segments and all its candidates). Below
+   ``min_existence`` a segment is forgotten; existence is capped at ``max_existence`` so that
+   enough contrary evidence always fades a segment.
+3. **Ambiguity**: a new ambiguous segment is associated with the remembered ambiguity whose
+   candidates its candidates match (gate per candidate pair; one-to-one between ambiguities,
+   then between their candidates). Each remembered candidate ``i`` is re-weighted by Bayes,
+   ``p_i' ∝ p_i r_i`` and ``p_none' ∝ p_none`` (``p_none = 1 - sum p``: "no obstacle here", the
+   reference hypothesis, under which every candidate is a false match): ``r_i = pd / pf`` when a
+   new unambiguous segment coincides with it, ``1 + q_j (pd / pf - 1)`` when candidate ``j``
+   (probability ``q_j``) of the new ambiguous segment does, ``(1 - pd) / (1 - pf)`` when it lies
+   in the floor seen free and nothing coincides, 1 otherwise. A candidate whose posterior reaches
+   ``resolve_probability`` becomes an ordinary segment (existence: its posterior); when the none
+   mass does, the ambiguity goes. Candidates below ``min_candidate_probability`` are pruned
+   (at least two stay) and their mass renormalised. Unassociated new ambiguities enter as they
+   are (their ``p_none`` raised to ``none_prior`` when that is above it).
+4. **Seen floor**: :attr:`ModelMemory.seen` is the union of every view's visible area (one
+   shapely geometry, simplified to ``seen_tolerance_m`` and coarser while it has more than
+   ``max_seen_vertices`` vertices); floor never seen is unknown (:meth:`ModelMemory.unknown`).
+5. **Bounds**: at most ``max_segments`` segments (the lowest existence, then the least recently
+   seen, go first), ``max_ambiguous`` ambiguities (the most probably empty, then the least
+   recently seen, go first), ``max_contacts`` contacts (the oldest go first).
+
+Contacts (:func:`add_contact`) are certain: a short segment across the contact normal, never
+faded by free-space evidence, replaced by a newer contact within ``contact_merge_m``.
+:func:`build_memory_model` runs :func:`~modeling.model.build_model` on
+:meth:`ModelMemory.observation` (the segments with existence at least ``report_existence``, the
+contacts and the open ambiguities, at the latest viewpoint), so its critical regions carry the
+narrowed widths of the fused endpoints.
+
+Every view is taken as independent evidence: a robot standing still sees the same (possibly
+false) match again and again, and its existence and covariance move as if the views were
+independent.
+
+Frames: world, metres; covariances m^2; angles radians; probabilities in [0, 1].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from dataclasses import replace as dataclasses_replace
+from typing import Any
+
+import numpy as np
+import shapely
+from numpy.typing import ArrayLike
+
+from modeling.memory_ambiguity import candidates_of, reweight
+from modeling.memory_association import (
+    assign,
+    fused_segments,
+    gated_pairs,
+    odds_update,
+    stack_of,
+)
+from modeling.memory_visibility import Visibility, visibility
+from modeling.model import ModelOptions, build_model
+from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
+from modeling.records import EnvironmentModel
+from modeling.validation import FloatArray, finite_array, integer, number, positive, with_overrides
+
+__all__ = ["MemoryOptions", "ModelMemory", "add_contact", "build_memory_model", "fuse"]
+
+_CHI2_99_4DOF = 13.276704135987622  # scipy.stats.chi2.ppf(0.99, 4)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class MemoryOptions:
+    """The options of :func:`fuse` and :func:`add_contact` (see the module docstring).
+
+    Attributes:
+        gate_chi2: Association gate on the squared Mahalanobis distance of the endpoint
+            difference (4 dof; default ``chi2.ppf(0.99, 4)``), > 0.
+        detection_probability: ``pd``, P(a real segment in the floor seen free is detected),
+            in (0, 1), above ``false_match_rate``.
+        false_match_rate: ``pf``, P(a detection at a place where nothing is), in (0, 1).
+        initial_existence: P(real) of a segment seen for the first time, in (0, 1).
+        report_existence: Segments at least this probable enter :meth:`ModelMemory.observation`,
+            in [min_existence, initial_existence].
+        min_existence: Segments below this are forgotten, in (0, initial_existence).
+        max_existence: Existence is capped here, in (initial_existence, 1).
+        resolve_probability: A candidate (or the none mass) at least this probable resolves its
+            ambiguity, in (0.5, 1).
+        min_candidate_probability: Candidates below this are pruned (two always stay), in [0, 0.5).
+        none_prior: A new ambiguity's ``p_none`` is raised to at least this (its candidates
+            scaled down), in [0, 1).
+        max_segments: At most this many remembered segments (>= 1).
+        max_ambiguous: At most this many open ambiguities (>= 0).
+        max_contacts: At most this many contacts (>= 0).
+        free_margin_m: A point is seen free only this far short of the nearest hit along its ray,
+            metres (>= 0).
+        near_range_m: Floor nearer than this to the viewpoint is not seen (it is out of the
+            image), metres (>= 0).
+        n_rays: Rays of the visibility sweep across the field of view (>= 3).
+        seen_tolerance_m: Simplification tolerance of the seen floor, metres (> 0).
+        max_seen_vertices: The seen floor is simplified more coarsely while it has more vertices
+            (>= 16).
+        contact_length_m: Length of a contact's segment, metres (> 0).
+        contact_sigma_m: Standard deviation of a contact's endpoints, metres (> 0).
+        contact_merge_m: A new contact replaces the contacts whose midpoints are nearer, metres
+            (>= 0).
+    """
+
+    gate_chi2: float = _CHI2_99_4DOF
+    detection_probability: float = 0.8
+    false_match_rate: float = 0.05
+    initial_existence: float = 0.5
+    report_existence: float = 0.3
+    min_existence: float = 0.1
+    max_existence: float = 0.999
+    resolve_probability: float = 0.95
+    min_candidate_probability: float = 0.01
+    none_prior: float = 0.0
+    max_segments: int = 400
+    max_ambiguous: int = 64
+    max_contacts: int = 64
+    free_margin_m: float = 0.1
+    near_range_m: float = 0.0
+    n_rays: int = 181
+    seen_tolerance_m: float = 0.05
+    max_seen_vertices: int = 2000
+    contact_length_m: float = 0.2
+    contact_sigma_m: float = 0.02
+    contact_merge_m: float = 0.1
+
+    def __post_init__(self) -> None:
+        def unit(name: str, low: float = 0.0, high: float = 1.0, strict: bool = True) -> None:
+            object.__setattr__(
+                self, name, number(getattr(self, name), name, low=low, high=high, strict=strict)
+            )
+
+        object.__setattr__(self, "gate_chi2", positive(self.gate_chi2, "gate_chi2"))
+        for name in ("detection_probability", "false_match_rate", "initial_existence"):
+            unit(name)
+        if self.detection_probability <= self.false_match_rate:
+            raise ValueError(
+                f"detection_probability must exceed false_match_rate ({self.false_match_rate}), "
+                f"got {self.detection_probability}"
+            )
+        unit("min_existence", high=self.initial_existence)
+        unit("report_existence", self.min_existence, self.initial_existence, strict=False)
+        unit("max_existence", low=self.initial_existence)
+        unit("resolve_probability", low=0.5)
+        unit("min_candidate_probability", high=0.5, strict=False)
+        if self.min_candidate_probability >= 0.5:
+            raise ValueError(
+                f"min_candidate_probability must be < 0.5, got {self.min_candidate_probability}"
+            )
+        unit("none_prior", strict=False)
+        if self.none_prior >= 1.0:
+            raise ValueError(f"none_prior must be < 1, got {self.none_prior}")
+        for name, low in (
+            ("max_segments", 1),
+            ("max_ambiguous", 0),
+            ("max_contacts", 0),
+            ("n_rays", 3),
+            ("max_seen_vertices", 16),
+        ):
+            object.__setattr__(self, name, integer(getattr(self, name), name, low=low))
+        for name in ("free_margin_m", "near_range_m", "contact_merge_m"):
+            object.__setattr__(self, name, positive(getattr(self, name), name, allow_zero=True))
+        for name in ("seen_tolerance_m", "contact_length_m", "contact_sigma_m"):
+            object.__setattr__(self, name, positive(getattr(self, name), name))
+
+
+_EMPTY_SEEN = shapely.Polygon()
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class ModelMemory:
+    """What the robot knows of the floor after some views (see the module docstring).
+
+    Attributes:
+        segments: Fused unambiguous segments, world frame.
+        existence: P(segment is real), one per segment.
+        ambiguous: The ambiguities still open, their probabilities Bayes-updated (they may sum to
+            less than 1: the rest is "no obstacle here").
+        contacts: Bumps as short segments across the contact normal (certain, never faded).
+        seen: The floor seen so far (a shapely geometry, world frame); the rest is unknown.
+        viewpoint: (3,) ``(x_m, y_m, heading_rad)`` of the latest observation.
+        fov_rad: Field of view of the latest observation, radians.
+        max_range_m: Range of the latest observation, metres.
+        views: Observations fused.
+        last_seen: The view (1-based count) that last detected each segment (0: never; a resolved
+            candidate counts from its ambiguity).
+        ambiguous_seen: The view that last detected each ambiguity.
+        report_existence: :meth:`observation` keeps the segments at least this probable.
+    """
+
+    segments: tuple[FloorSegment, ...] = ()
+    existence: tuple[float, ...] = ()
+    ambiguous: tuple[AmbiguousSegment, ...] = ()
+    contacts: tuple[FloorSegment, ...] = ()
+    seen: Any = _EMPTY_SEEN
+    viewpoint: FloatArray = field(default_factory=lambda: np.zeros(3))
+    fov_rad: float = math.radians(64.0)
+    max_range_m: float = 8.0
+    views: int = 0
+    last_seen: tuple[int, ...] = ()
+    ambiguous_seen: tuple[int, ...] = ()
+    report_existence: float = 0.3
+
+    def __post_init__(self) -> None:
+        n = len(self.segments)
+        for name, length in (
+            ("existence", n),
+            ("last_seen", n),
+            ("ambiguous_seen", len(self.ambiguous)),
+        ):
+            if len(getattr(self, name)) != length:
+                raise ValueError(
+                    f"{name} must have {length} entries, got {len(getattr(self, name))}"
+                )
+        if any(not 0.0 <= e <= 1.0 for e in self.existence):
+            raise ValueError("existence must lie in [0, 1]")
+        if not isinstance(self.seen, shapely.Geometry):
+            raise ValueError(f"seen must be a shapely geometry, got {type(self.seen).__name__}")
+        vp = finite_array(self.viewpoint, "viewpoint", (3,))
+        vp.setflags(write=False)
+        object.__setattr__(self, "viewpoint", vp)
+        object.__setattr__(self, "views", integer(self.views, "views", low=0))
+
+    @classmethod
+    def empty(cls) -> ModelMemory:
+        """The memory before any view: nothing known, every floor unknown."""
+        return cls()
+
+    def observation(self) -> FloorObservation:
+        """What :func:`~modeling.model.build_model` runs on: the segments at least
+        ``report_existence`` probable, then the contacts; the open ambiguities; the latest
+        viewpoint, field of view and range."""
+        keep = tuple(
+            s
+            for s, e in zip(self.segments, self.existence, strict=True)
+            if e >= self.report_existence
+        )
+        return FloorObservation(
+            segments=keep + self.contacts,
+            ambiguous=self.ambiguous,
+            viewpoint=self.viewpoint,
+            fov_rad=self.fov_rad,
+            max_range_m=self.max_range_m,
+        )
+
+    def unknown(self, bounds: Any) -> Any:
+        """The floor within ``bounds`` (a shapely geometry, world frame) never seen."""
+        if not isinstance(bounds, shapely.Geometry):
+            raise ValueError(f"bounds must be a shapely geometry, got {type(bounds).__name__}")
+        return shapely.difference(bounds, self.seen)
+
+
+# ------------------------------------------------------------------------------- fusion
+def _seen_free(vis: Visibility, ends: FloatArray, margin_m: float) -> np.ndarray:
+    """(n,) bool: both endpoints and the midpoint of each segment (n, 2, 2) are seen free."""
+    n = ends.shape[0]
+    if n == 0:
+        return np.zeros(0, dtype=bool)
+    pts = np.concatenate([ends[:, 0], ends[:, 1], ends.mean(axis=1)])
+    out: np.ndarray = np.all(vis.seen_free(pts, margin_m).reshape(3, n), axis=0)
+    return out
+
+
+def _keep_bounded(n: int, limit: int, keys: tuple[np.ndarray, ...]) -> np.ndarray:
+    """Indices (ascending) of at most ``limit`` of ``n`` items, dropping those first in the
+    lexicographic order of ``keys`` (the first key most significant)."""
+    if n <= limit:
+        return np.arange(n)
+    order = np.lexsort(tuple(reversed(keys)))  # np.lexsort sorts by its last key first
+    return np.sort(order[n - limit :])
+
+
+def _seen_union(seen: Any, visible: Any, opts: MemoryOptions) -> Any:
+    """``seen`` grown by ``visible``, simplified (more coarsely while it has too many vertices)."""
+    tol = opts.seen_tolerance_m
+    out = shapely.simplify(shapely.union(seen, visible), tol)
+    while shapely.get_num_coordinates(out) > opts.max_seen_vertices:
+        tol *= 2.0
+        out = shapely.simplify(out, tol)
+    return out
+
+
+def fuse(
+    memory: ModelMemory,
+    observation: FloorObservation,
+    options: MemoryOptions | None = None,
+    **overrides: Any,
+) -> ModelMemory:
+    """Fold one observation into the memory (see the module docstring for the steps).
+
+    Pure and deterministic: the same inputs give the same memory; neither input is changed.
+
+    Args:
+        memory: The memory so far (:meth:`ModelMemory.empty` before the first view).
+        observation: The new view's floor segments, world frame.
+        options: The :class:`MemoryOptions` (default: their defaults).
+        **overrides: Fields of :class:`MemoryOptions` to replace.
+
+    Returns:
+        The memory after the view: its segments, ambiguities and seen floor updated, its
+        viewpoint, field of view and range those of ``observation``.
+
+    Raises:
+        ValueError: Bad arguments or options, naming them.
+    """
+    _check_type(memory, "memory", ModelMemory)
+    _check_type(observation, "observation", FloorObservation)
+    opts = with_overrides(options, MemoryOptions, overrides)
+    view = memory.views + 1
+    pd, pf = opts.detection_probability, opts.false_match_rate
+    new = stack_of(observation.segments)
+    new_cands = candidates_of(observation.ambiguous)
+    occluders = np.concatenate([new.ends, new_cands.stack.ends])
+    vis = visibility(observation, occluders, n_rays=opts.n_rays, near_m=opts.near_range_m)
+
+    # 1. Association of the new unambiguous segments with the remembered ones; fusion.
+    mem = stack_of(memory.segments)
+    pairs = assign(gated_pairs(new.ends, new.cov, mem.ends, mem.cov, opts.gate_chi2))
+    segments = list(memory.segments)
+    for k, seg in zip(pairs.cols.tolist(), fused_segments(mem, new, pairs), strict=True):
+        segments[k] = seg
+    # 2. Existence: seen again gains, seen free and not detected loses, unseen unchanged.
+    detected = np.zeros(len(segments), dtype=bool)
+    detected[pairs.cols] = True
+    ratio = np.ones(len(segments))
+    ratio[detected] = pd / pf
+    ratio[~detected & _seen_free(vis, mem.ends, opts.free_margin_m)] = (1.0 - pd) / (1.0 - pf)
+    existence = odds_update(
+        np.asarray(memory.existence, dtype=np.float64), ratio, opts.max_existence
+    )
+    last_seen = np.where(detected, view, np.asarray(memory.last_seen, dtype=np.int64))
+    # 3. Ambiguities: the unmatched new segments and the new ambiguous ones as evidence.
+    unmatched = np.ones(new.ends.shape[0], dtype=bool)
+    unmatched[pairs.rows] = False
+    rest = np.flatnonzero(unmatched)
+    rest_stack = type(new)(*(arr[rest] for arr in new))
+    amb = reweight(
+        memory.ambiguous,
+        memory.ambiguous_seen,
+        rest_stack,
+        observation.ambiguous,
+        lambda ends: _seen_free(vis, ends, opts.free_margin_m),
+        opts=opts,
+        view=view,
+    )
+    # 4. New segments (neither associated nor evidence for a candidate) and resolved candidates.
+    entering = np.delete(rest, amb.consumed)
+    all_segments = segments + [observation.segments[i] for i in entering.tolist()]
+    all_segments += [seg for seg, _, _ in amb.resolved]
+    all_existence = np.concatenate(
+        [
+            existence,
+            np.full(entering.shape[0], opts.initial_existence),
+            np.array([min(p, opts.max_existence) for _, p, _ in amb.resolved]),
+        ]
+    )
+    all_seen = np.concatenate(
+        [
+            last_seen,
+            np.full(entering.shape[0], view, dtype=np.int64),
+            np.array([s for _, _, s in amb.resolved], dtype=np.int64),
+        ]
+    )
+    # 5. Forget the faded, then bound the size (lowest existence, then least recently seen).
+    alive = np.flatnonzero(all_existence >= opts.min_existence)
+    keep = alive[
+        _keep_bounded(alive.shape[0], opts.max_segments, (all_existence[alive], all_seen[alive]))
+    ]
+    ambiguous, amb_seen = amb.ambiguous, amb.seen
+    if len(ambiguous) > opts.max_ambiguous:
+        none = np.array([1.0 - sum(a.probabilities) for a in ambiguous])
+        kept = _keep_bounded(
+            len(ambiguous), opts.max_ambiguous, (-none, np.asarray(amb_seen, dtype=np.int64))
+        ).tolist()
+        ambiguous = tuple(ambiguous[i] for i in kept)
+        amb_seen = tuple(amb_seen[i] for i in kept)
+    return ModelMemory(
+        segments=tuple(all_segments[i] for i in keep.tolist()),
+        existence=tuple(all_existence[keep].tolist()),
+        ambiguous=ambiguous,
+        contacts=memory.contacts,
+        seen=_seen_union(memory.seen, vis.polygon(opts.seen_tolerance_m), opts),
+        viewpoint=observation.viewpoint,
+        fov_rad=observation.fov_rad,
+        max_range_m=observation.max_range_m,
+        views=view,
+        last_seen=tuple(all_seen[keep].tolist()),
+        ambiguous_seen=tuple(amb_seen),
+        report_existence=opts.report_existence,
+    )
+
+
+def add_contact(
+    memory: ModelMemory,
+    point_xy: ArrayLike,
+    normal_xy: ArrayLike,
+    *,
+    height_m: float,
+    options: MemoryOptions | None = None,
+) -> ModelMemory:
+    """The memory with a bump: a segment of ``contact_length_m`` across the contact normal,
+    centred on the contact point, endpoints of standard deviation ``contact_sigma_m``, heights
+    ``(0, height_m)``.
+
+    A contact is certain (existence 1) and never faded by free-space evidence (the robot touched
+    it; the world is static). It replaces the contacts whose midpoints lie within
+    ``contact_merge_m`` of the point (a robot pushing against an obstacle bumps every step), and
+    the oldest go beyond ``max_contacts``.
+
+    Args:
+        memory: The memory.
+        point_xy: (2,) contact point, world frame, metres.
+        normal_xy: (2,) contact normal (any non-zero length; its sign does not matter).
+        height_m: Height of the obstacle touched, metres (> 0).
+        options: The :class:`MemoryOptions` (default: their defaults).
+
+    Raises:
+        ValueError: Bad arguments, naming them.
+    """
+    _check_type(memory, "memory", ModelMemory)
+    opts = with_overrides(options, MemoryOptions, {})
+    p = finite_array(point_xy, "point_xy", (2,))
+    n = finite_array(normal_xy, "normal_xy", (2,))
+    length = math.hypot(float(n[0]), float(n[1]))
+    if length == 0.0:
+        raise ValueError("normal_xy must not be zero")
+    h = positive(height_m, "height_m")
+    tangent = np.array([-n[1], n[0]]) / length
+    half = 0.5 * opts.contact_length_m * tangent
+    cov = np.tile(np.eye(2) * opts.contact_sigma_m**2, (2, 1, 1))
+    contact = FloorSegment(
+        endpoints=np.stack([p - half, p + half]), cov=cov, height_m=np.array([0.0, h])
+    )
+    kept = [
+        c
+        for c in memory.contacts
+        if math.dist(c.midpoint.tolist(), p.tolist()) >= opts.contact_merge_m
+    ]
+    contacts = [*kept, contact][-opts.max_contacts :] if opts.max_contacts else []
+    return dataclasses_replace(memory, contacts=tuple(contacts))
+
+
+def build_memory_model(
+    memory: ModelMemory,
+    robot_width_m: float,
+    options: ModelOptions | None = None,
+    **overrides: Any,
+) -> EnvironmentModel:
+    """The fused environment model: :func:`~modeling.model.build_model` on
+    :meth:`ModelMemory.observation` (situations over the ambiguities still open, critical regions
+    with the widths of the fused endpoints, the occluded area from the latest viewpoint).
+
+    Args:
+        memory: The memory.
+        robot_width_m: Robot width (diameter), metres, > 0.
+        options: The :class:`~modeling.model.ModelOptions` (default: their defaults).
+        **overrides: Fields of :class:`~modeling.model.ModelOptions` to replace.
+    """
+    _check_type(memory, "memory", ModelMemory)
+    return build_model(memory.observation(), robot_width_m, options, **overrides)
+
+
+def _check_type(value: Any, name: str, cls: type) -> None:
+    if not isinstance(value, cls):
+        raise ValueError(f"{name} must be a {cls.__name__}, got {type(value).__name__}")

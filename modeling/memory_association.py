@@ -1,0 +1,279 @@
+"""Association and Gaussian fusion of floor segments across views (issue 16; paper section 6).
+
+Two floor segments are the same edge when the difference of their endpoints is small against its
+uncertainty: with endpoint means ``a_0, a_1`` (covariances ``A_0, A_1``) and ``b_0, b_1``
+(``B_0, B_1``), all independent, the squared Mahalanobis distance of the 4-vector
+``(b_0 - a_0, b_1 - a_1)`` is ``sum_e d_e^T (A_e + B_e)^-1 d_e`` (4 degrees of freedom: the summed
+covariance is block diagonal). Both endpoint orders are tried (a segment has no direction) and
+the smaller distance counts; a pair is *gated* when it is at most the chi-square gate (e.g.
+``chi2.ppf(0.99, 4) = 13.28``). Gated pairs are assigned one-to-one by
+:func:`scipy.optimize.linear_sum_assignment` (most pairs first, then the smallest total
+distance). An associated pair fuses endpoint by endpoint as the product of Gaussians
+(:func:`gaussian_product`, information form).
+
+Only the endpoint gate is used: a segment seen from a new viewpoint as a longer or shorter piece
+of the same edge (clipped by the image border or by an occluder) fails the gate at the clipped
+end and enters the memory as a segment of its own; the old piece keeps its existence while its
+ends are out of view. The memory bounds the duplicates that this leaves.
+
+Frames: world, metres; covariances m^2.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import NamedTuple
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from modeling.observation import FloorSegment
+from modeling.validation import FloatArray
+
+__all__ = [
+    "Association",
+    "SegmentStack",
+    "assign",
+    "endpoint_distances",
+    "fused_segments",
+    "gated_pairs",
+    "gaussian_product",
+    "odds_update",
+    "stack_of",
+    "subset",
+    "trusted_segment",
+]
+
+# Cost of a pair outside the gate in the assignment: above any sum of gated costs, so the
+# assignment first maximises the number of gated pairs.
+_BIG = 1e12
+
+
+class Association(NamedTuple):
+    """Gated pairs between new segments (rows) and remembered ones (columns).
+
+    Attributes:
+        rows: (k,) int64, index of the new segment.
+        cols: (k,) int64, index of the remembered segment.
+        d2: (k,) squared Mahalanobis distance of the endpoint difference (the better order).
+        swapped: (k,) bool, the new segment's endpoints match the remembered ones in reverse.
+    """
+
+    rows: np.ndarray
+    cols: np.ndarray
+    d2: FloatArray
+    swapped: np.ndarray
+
+
+_EMPTY = Association(
+    rows=np.zeros(0, dtype=np.int64),
+    cols=np.zeros(0, dtype=np.int64),
+    d2=np.zeros(0),
+    swapped=np.zeros(0, dtype=bool),
+)
+
+
+def _mahalanobis2(d: FloatArray, S: FloatArray) -> FloatArray:
+    """``d^T S^-1 d`` for stacks d (..., 2), S (..., 2, 2) (closed-form 2x2 inverse)."""
+    a, b, c = S[..., 0, 0], S[..., 0, 1], S[..., 1, 1]
+    x, y = d[..., 0], d[..., 1]
+    out: FloatArray = (c * x * x - 2.0 * b * x * y + a * y * y) / (a * c - b * b)
+    return out
+
+
+def endpoint_distances(
+    new_ends: FloatArray, new_cov: FloatArray, mem_ends: FloatArray, mem_cov: FloatArray
+) -> tuple[FloatArray, np.ndarray]:
+    """The 4-dof squared Mahalanobis distance of the endpoint difference, for aligned pairs.
+
+    Args:
+        new_ends: (k, 2, 2) endpoint means of the new segments, metres.
+        new_cov: (k, 2, 2, 2) their endpoint covariances, m^2.
+        mem_ends: (k, 2, 2) endpoint means of the remembered segments paired with them.
+        mem_cov: (k, 2, 2, 2) their covariances.
+
+    Returns:
+        ``(d2, swapped)``: (k,) the smaller of the two orders' distances, and (k,) whether the
+        reversed order (new endpoint 1 with remembered endpoint 0) gave it.
+    """
+    straight = _mahalanobis2(new_ends - mem_ends, new_cov + mem_cov).sum(axis=-1)
+    rev_ends, rev_cov = new_ends[:, ::-1], new_cov[:, ::-1]
+    reverse = _mahalanobis2(rev_ends - mem_ends, rev_cov + mem_cov).sum(axis=-1)
+    swapped = reverse < straight
+    return np.where(swapped, reverse, straight), swapped
+
+
+def gated_pairs(
+    new_ends: FloatArray,
+    new_cov: FloatArray,
+    mem_ends: FloatArray,
+    mem_cov: FloatArray,
+    gate_chi2: float,
+) -> Association:
+    """Every (new, remembered) pair whose endpoint distance is within the gate.
+
+    A prefilter on the midpoints drops pairs that cannot pass: a gated pair has
+    ``|d_e|^2 <= gate * lambda_max(A_e + B_e) <= gate * (tr A_e + tr B_e)`` at each endpoint, so
+    its midpoints are at most ``sqrt(gate * (t_new + t_mem))`` apart, ``t`` the larger endpoint
+    trace of each segment (exact: no gated pair is lost).
+
+    Args:
+        new_ends: (n, 2, 2) new segments' endpoint means, metres; new_cov (n, 2, 2, 2), m^2.
+        mem_ends: (m, 2, 2) remembered segments' endpoint means; mem_cov (m, 2, 2, 2).
+        gate_chi2: The gate on the squared Mahalanobis distance (4 dof).
+
+    Returns:
+        The gated pairs, ordered by row then column.
+    """
+    n, m = new_ends.shape[0], mem_ends.shape[0]
+    if n == 0 or m == 0:
+        return _EMPTY
+    t_new = np.trace(new_cov, axis1=-2, axis2=-1).max(axis=1)
+    t_mem = np.trace(mem_cov, axis1=-2, axis2=-1).max(axis=1)
+    diff = new_ends.mean(axis=1)[:, None, :] - mem_ends.mean(axis=1)[None, :, :]
+    near = np.einsum("nmi,nmi->nm", diff, diff) <= gate_chi2 * (t_new[:, None] + t_mem[None, :])
+    rows, cols = np.nonzero(near)
+    if rows.shape[0] == 0:
+        return _EMPTY
+    d2, swapped = endpoint_distances(new_ends[rows], new_cov[rows], mem_ends[cols], mem_cov[cols])
+    ok = d2 <= gate_chi2
+    return Association(rows=rows[ok], cols=cols[ok], d2=d2[ok], swapped=swapped[ok])
+
+
+def assign(pairs: Association) -> Association:
+    """The one-to-one subset of gated ``pairs`` with the most pairs, then the least total
+    distance (:func:`scipy.optimize.linear_sum_assignment` on the rows and columns that have a
+    gated pair; deterministic). Ordered by row."""
+    if pairs.rows.shape[0] == 0:
+        return pairs
+    urows, ri = np.unique(pairs.rows, return_inverse=True)
+    ucols, ci = np.unique(pairs.cols, return_inverse=True)
+    if urows.shape[0] == pairs.rows.shape[0] and ucols.shape[0] == pairs.cols.shape[0]:
+        return pairs  # already one-to-one
+    cost = np.full((urows.shape[0], ucols.shape[0]), _BIG)
+    cost[ri, ci] = pairs.d2
+    index = np.full(cost.shape, -1, dtype=np.int64)
+    index[ri, ci] = np.arange(pairs.rows.shape[0])
+    r, c = linear_sum_assignment(cost)
+    chosen = index[r, c]
+    chosen = np.sort(chosen[chosen >= 0])
+    return Association(
+        rows=pairs.rows[chosen],
+        cols=pairs.cols[chosen],
+        d2=pairs.d2[chosen],
+        swapped=pairs.swapped[chosen],
+    )
+
+
+def gaussian_product(
+    mean_a: FloatArray, cov_a: FloatArray, mean_b: FloatArray, cov_b: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """The product of Gaussians ``N(mean_a, cov_a) N(mean_b, cov_b)``, normalised, in information
+    form: ``P = (A^-1 + B^-1)^-1``, ``m = P (A^-1 a + B^-1 b)``.
+
+    Args:
+        mean_a: (..., 2) means, metres; cov_a (..., 2, 2) covariances, m^2 (positive definite).
+        mean_b: (..., 2) and cov_b (..., 2, 2): the other factor.
+
+    Returns:
+        ``(mean, cov)`` of the same shapes (the covariance symmetrised).
+    """
+    inv_a = np.linalg.inv(cov_a)
+    inv_b = np.linalg.inv(cov_b)
+    cov = np.linalg.inv(inv_a + inv_b)
+    cov = 0.5 * (cov + np.swapaxes(cov, -1, -2))
+    info = np.einsum("...ij,...j->...i", inv_a, mean_a) + np.einsum(
+        "...ij,...j->...i", inv_b, mean_b
+    )
+    mean = np.einsum("...ij,...j->...i", cov, info)
+    return mean, cov
+
+
+def odds_update(p: FloatArray, ratio: FloatArray, high: float) -> FloatArray:
+    """Bayes' rule in odds form: ``p`` (probabilities) times the likelihood ``ratio``
+    (``P(evidence | real) / P(evidence | not real)``), clipped to ``[0, high]``."""
+    num = p * ratio
+    out: FloatArray = np.minimum(num / (num + (1.0 - p)), high)
+    return out
+
+
+# ------------------------------------------------------------------- segments as arrays
+_SEGMENT_FIELDS = ("endpoints", "cov", "height_m", "source")
+_EXTRA_FIELDS = tuple(
+    (f.name, f.default_factory() if f.default_factory is not dataclasses.MISSING else f.default)
+    for f in dataclasses.fields(FloorSegment)
+    if f.name not in _SEGMENT_FIELDS
+)
+
+
+def trusted_segment(
+    ends: FloatArray, cov: FloatArray, heights: FloatArray, source: int
+) -> FloorSegment:
+    """A :class:`~modeling.observation.FloorSegment` of values computed by the memory (finite;
+    covariances positive definite by construction: products of positive-definite Gaussians),
+    made without its validation, which costs 30 us a segment on the project machine (the largest
+    cost of a fuse otherwise). The arrays are copied and made read-only, as the validated
+    constructor does."""
+    seg: FloorSegment = object.__new__(FloorSegment)
+    for name, value in (("endpoints", ends), ("cov", cov), ("height_m", heights)):
+        arr = np.array(value, dtype=np.float64)
+        arr.setflags(write=False)
+        object.__setattr__(seg, name, arr)
+    object.__setattr__(seg, "source", int(source))
+    for name, default in _EXTRA_FIELDS:
+        object.__setattr__(seg, name, default)
+    return seg
+
+
+class SegmentStack(NamedTuple):
+    """Segments as arrays.
+
+    Attributes:
+        ends: (n, 2, 2) endpoint means, world frame, metres.
+        cov: (n, 2, 2, 2) endpoint covariances, m^2.
+        heights: (n, 2) endpoint heights, metres.
+        source: (n,) int64 provenance.
+    """
+
+    ends: FloatArray
+    cov: FloatArray
+    heights: FloatArray
+    source: np.ndarray
+
+
+def stack_of(segs: tuple[FloorSegment, ...] | list[FloorSegment]) -> SegmentStack:
+    """The arrays of ``segs`` (one concatenation per field)."""
+    n = len(segs)
+    if n == 0:
+        return SegmentStack(
+            np.zeros((0, 2, 2)), np.zeros((0, 2, 2, 2)), np.zeros((0, 2)), np.zeros(0, np.int64)
+        )
+    return SegmentStack(
+        np.concatenate([s.endpoints for s in segs]).reshape(n, 2, 2),
+        np.concatenate([s.cov for s in segs]).reshape(n, 2, 2, 2),
+        np.concatenate([s.height_m for s in segs]).reshape(n, 2),
+        np.array([s.source for s in segs], dtype=np.int64),
+    )
+
+
+def fused_segments(mem: SegmentStack, new: SegmentStack, pairs: Association) -> list[FloorSegment]:
+    """The remembered segments ``pairs.cols`` fused with the new ones ``pairs.rows`` (aligned by
+    ``pairs.swapped``): the product of the endpoint Gaussians, the larger heights, the new
+    segment's source. One segment per pair, in the pairs' order."""
+    rows, cols, swapped = pairs.rows, pairs.cols, pairs.swapped
+    if rows.shape[0] == 0:
+        return []
+    ends = np.where(swapped[:, None, None], new.ends[rows][:, ::-1], new.ends[rows])
+    cov = np.where(swapped[:, None, None, None], new.cov[rows][:, ::-1], new.cov[rows])
+    heights = np.where(swapped[:, None], new.heights[rows][:, ::-1], new.heights[rows])
+    mean, P = gaussian_product(mem.ends[cols], mem.cov[cols], ends, cov)
+    top = np.maximum(mem.heights[cols], heights)
+    src = new.source[rows].tolist()
+    return [trusted_segment(mean[k], P[k], top[k], src[k]) for k in range(rows.shape[0])]
+
+
+def subset(pairs: Association, keep: np.ndarray) -> Association:
+    """The pairs where ``keep`` (a bool mask or indices)."""
+    return Association(
+        rows=pairs.rows[keep], cols=pairs.cols[keep], d2=pairs.d2[keep], swapped=pairs.swapped[keep]
+    )

@@ -1,0 +1,116 @@
+"""The floor one observation sees free (issue 16; occlusion after paper section 4.1).
+
+What a view sees is its field-of-view wedge of radius ``max_range_m`` up to the nearest segment
+along each ray: the same angular sweep as :func:`modeling.occlusion.occluded_area`
+(:func:`modeling.occlusion.nearest_hits`), kept as the hit distance per ray. A floor point is
+*seen free* when it lies in the wedge, beyond ``near_range_m`` (the floor too close to appear in
+the image) and at least ``margin_m`` short of the nearest hit along its ray (so a remembered
+segment lying on or just in front of what the view sees is not counted as seen free). The
+visible area as a polygon (:meth:`Visibility.polygon`) is the star of the hit points (or the
+range), simplified.
+
+Frames: world, metres; angles radians.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+import shapely
+
+from modeling.geometry import wrap_angle
+from modeling.observation import FloorObservation
+from modeling.occlusion import RaysAndSegments, nearest_hits
+from modeling.validation import FloatArray
+
+__all__ = ["Visibility", "visibility"]
+
+
+class Visibility(NamedTuple):
+    """One view's rays and how far each sees.
+
+    Attributes:
+        origin: (2,) the viewpoint, world frame, metres.
+        heading: Heading of the view, radians.
+        half_fov: Half the field of view, radians.
+        angles: (B,) ray angles relative to the heading, ascending, radians.
+        reach: (B,) distance to the nearest hit of each ray, at most the range, metres.
+        near_m: Floor nearer than this is not seen, metres.
+    """
+
+    origin: FloatArray
+    heading: float
+    half_fov: float
+    angles: FloatArray
+    reach: FloatArray
+    near_m: float
+
+    def seen_free(self, points: FloatArray, margin_m: float) -> np.ndarray:
+        """(k,) bool: each of ``points`` (k, 2), world metres, is seen free by this view (in the
+        wedge, beyond ``near_m``, at least ``margin_m`` short of its ray's hit)."""
+        rel = np.asarray(points, dtype=np.float64).reshape(-1, 2) - self.origin
+        dist = np.hypot(rel[:, 0], rel[:, 1])
+        ang = wrap_angle(np.arctan2(rel[:, 1], rel[:, 0]) - self.heading)
+        n = self.angles.shape[0]
+        step = 2.0 * self.half_fov / (n - 1)
+        k = np.clip(np.rint((ang + self.half_fov) / step), 0, n - 1).astype(np.int64)
+        out: np.ndarray = (
+            (np.abs(ang) <= self.half_fov)
+            & (dist > self.near_m)
+            & (dist < self.reach[k] - margin_m)
+        )
+        return out
+
+    def polygon(self, tolerance_m: float) -> Any:
+        """The visible area as a shapely Polygon (the star of the rays' reaches, from the near
+        arc), simplified to ``tolerance_m`` metres; world frame."""
+        ang = self.heading + self.angles
+        u = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+        reach = np.maximum(self.reach, self.near_m)
+        far = self.origin + reach[:, None] * u
+        if self.near_m > 0.0:
+            ring = np.vstack([far, (self.origin + self.near_m * u)[::-1]])
+        else:
+            ring = np.vstack([self.origin[None, :], far])
+        poly = shapely.make_valid(shapely.Polygon(ring))
+        return shapely.simplify(poly, tolerance_m)
+
+
+def visibility(
+    observation: FloorObservation, occluders: FloatArray, *, n_rays: int, near_m: float
+) -> Visibility:
+    """The rays of ``observation`` and the reach of each past the ``occluders``.
+
+    Args:
+        observation: The view (viewpoint, field of view, range).
+        occluders: (n, 2, 2) endpoint means of the segments that block the view, metres.
+        n_rays: Rays across the field of view (>= 2).
+        near_m: Floor nearer than this is not seen, metres.
+    """
+    vp = np.asarray(observation.viewpoint[:2], dtype=np.float64)
+    heading = float(observation.viewpoint[2])
+    half = 0.5 * float(observation.fov_rad)
+    R = float(observation.max_range_m)
+    offsets = np.linspace(-half, half, n_rays)
+    reach = np.full(n_rays, R)
+    if occluders.shape[0]:
+        step = 2.0 * half / (n_rays - 1)
+        ang = heading + offsets
+        u = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+        p = occluders[:, 0] - vp
+        e = occluders[:, 1] - occluders[:, 0]
+        a0 = wrap_angle(np.arctan2(p[:, 1], p[:, 0]) - heading)
+        a1 = wrap_angle(np.arctan2(p[:, 1] + e[:, 1], p[:, 0] + e[:, 0]) - heading)
+        lo, hi = np.minimum(a0, a1), np.maximum(a0, a1)
+        ok = hi - lo < math.pi
+        k0 = np.clip(np.ceil((lo + half) / step - 1e-9), 0, n_rays).astype(np.int64)
+        k1 = np.clip(np.floor((hi + half) / step + 1e-9), -1, n_rays - 1).astype(np.int64)
+        cnt = np.where(ok, np.maximum(k1 - k0 + 1, 0), 0)
+        if cnt.any():
+            hit = nearest_hits(RaysAndSegments(u=u, p=p, e=e, k0=k0, n_rays=cnt))
+            reach = np.minimum(reach, hit)
+    return Visibility(
+        origin=vp, heading=heading, half_fov=half, angles=offsets, reach=reach, near_m=near_m
+    )

@@ -1,0 +1,314 @@
+"""The fused model memory (issue 16, paper section 6): association and Gaussian fusion, existence,
+ambiguity re-weighting, contacts, bounds."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import shapely
+from numpy.typing import ArrayLike
+
+from modeling import (
+    AmbiguousSegment,
+    FloorObservation,
+    FloorSegment,
+    MemoryOptions,
+    ModelMemory,
+    add_contact,
+    build_memory_model,
+    fuse,
+)
+
+PD, PF = 0.8, 0.05  # the default detection probability and false-match rate
+HIT, MISS = PD / PF, (1 - PD) / (1 - PF)  # the likelihood ratios of a detection and of a miss
+
+
+def seg(a: ArrayLike, b: ArrayLike, cov: np.ndarray | None = None) -> FloorSegment:
+    c = np.tile(np.eye(2) * 0.03**2, (2, 1, 1)) if cov is None else cov
+    return FloorSegment(endpoints=np.array([a, b], dtype=np.float64), cov=c)
+
+
+def view(
+    segments: tuple[FloorSegment, ...] = (),
+    ambiguous: tuple[AmbiguousSegment, ...] = (),
+    at: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> FloorObservation:
+    return FloorObservation(segments=segments, ambiguous=ambiguous, viewpoint=np.array(at))
+
+
+def posterior(p: float, ratio: float) -> float:
+    return p * ratio / (p * ratio + 1 - p)
+
+
+def test_two_views_of_one_segment_fuse_to_the_product_of_gaussians() -> None:
+    cov1 = np.array([[[0.04, 0.01], [0.01, 0.02]], [[0.03, -0.005], [-0.005, 0.01]]])
+    cov2 = np.array([[[0.01, 0.0], [0.0, 0.05]], [[0.02, 0.004], [0.004, 0.03]]])
+    first = seg((3.0, -0.5), (3.2, 0.5), cov1)
+    # the second view sees the same edge with its endpoints in the other order
+    second = FloorSegment(endpoints=np.array([[3.25, 0.45], [2.9, -0.55]]), cov=cov2[::-1])
+    memory = fuse(fuse(ModelMemory.empty(), view((first,))), view((second,)))
+    assert len(memory.segments) == 1
+    got = memory.segments[0]
+    for e, (m1, m2) in enumerate(zip(first.endpoints, second.endpoints[::-1], strict=True)):
+        i1, i2 = np.linalg.inv(cov1[e]), np.linalg.inv(cov2[e])
+        P = np.linalg.inv(i1 + i2)
+        np.testing.assert_allclose(got.cov[e], P, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(got.endpoints[e], P @ (i1 @ m1 + i2 @ m2), rtol=0, atol=1e-12)
+    assert memory.existence == pytest.approx((posterior(0.5, HIT),), abs=1e-12)
+    assert memory.views == 2 and memory.last_seen == (2,)
+
+
+def test_an_ambiguity_seen_from_a_separating_viewpoint_resolves_to_the_true_candidate() -> None:
+    true = seg((4.0, 0.5), (4.0, 1.0))
+    false = seg((6.0, 0.75), (6.0, 1.4))  # a wrong disparity: farther along the first view's ray
+    first = view(ambiguous=(AmbiguousSegment(candidates=(true, false), probabilities=(0.5, 0.5)),))
+    memory = fuse(ModelMemory.empty(), first)
+    assert len(memory.ambiguous) == 1 and memory.segments == ()
+    # from the side: the true candidate is seen unambiguously, the false one's place is in view,
+    # not occluded, and nothing is there
+    again = seg((4.02, 0.48), (3.98, 1.03))
+    side = (4.0, -3.0, math.pi / 2)
+    vis_side = fuse(memory, view((again,), at=side))
+    assert vis_side.ambiguous == ()
+    assert len(vis_side.segments) == 1
+    p_true = 0.5 * HIT / (0.5 * HIT + 0.5 * MISS)
+    assert vis_side.existence == pytest.approx((p_true,), abs=1e-12)
+    got = vis_side.segments[0]
+    i1, i2 = np.linalg.inv(true.cov[0]), np.linalg.inv(again.cov[0])
+    P = np.linalg.inv(i1 + i2)
+    np.testing.assert_allclose(got.cov[0], P, atol=1e-12)
+    np.testing.assert_allclose(
+        got.endpoints[0], P @ (i1 @ true.endpoints[0] + i2 @ again.endpoints[0]), atol=1e-12
+    )
+    model = build_memory_model(vis_side, 0.5)
+    assert len(model.situations) == 1 and len(model.most_probable.obstacles) == 1
+
+
+def test_a_candidate_matched_by_a_new_ambiguous_one_gains_by_its_probability() -> None:
+    true, false = seg((4.0, 0.5), (4.0, 1.0)), seg((6.0, 0.75), (6.0, 1.4))
+    memory = fuse(
+        ModelMemory.empty(),
+        view(ambiguous=(AmbiguousSegment(candidates=(true, false), probabilities=(0.5, 0.5)),)),
+    )
+    # seen again as ambiguous from far to the left, the false candidate out of view
+    other = seg((1.0, 3.0), (1.2, 3.4))
+    amb = AmbiguousSegment(
+        candidates=(seg((4.0, 0.5), (4.0, 1.0)), other), probabilities=(0.7, 0.3)
+    )
+    later = fuse(memory, view(ambiguous=(amb,), at=(4.0, -3.0, math.pi / 2 + 0.45)))
+    assert len(later.ambiguous) == 1 and later.segments == ()
+    w_true, w_false = 0.5 * (1 + 0.7 * (HIT - 1)), 0.5
+    got = later.ambiguous[0].probabilities
+    assert got == pytest.approx(
+        (w_true / (w_true + w_false), w_false / (w_true + w_false)), abs=1e-12
+    )
+    assert later.ambiguous_seen == (2,)
+
+
+def test_a_false_segment_seen_free_fades_and_is_forgotten_one_out_of_view_is_kept() -> None:
+    ghost = seg((3.0, -0.2), (3.0, 0.2))
+    aside = seg((3.0, 1.4), (3.0, 1.7))  # 25-30 deg left of the first view
+    memory = fuse(ModelMemory.empty(), view((ghost, aside)))
+    assert memory.existence == (0.5, 0.5)
+    turned = (0.0, 0.0, -0.4)  # the ghost now 19-27 deg left, in view; the other out of view
+    once = fuse(memory, view(at=turned))
+    assert once.existence == pytest.approx((posterior(0.5, MISS), 0.5), abs=1e-12)
+    assert [s.endpoints.tolist() for s in once.observation().segments] == [aside.endpoints.tolist()]
+    twice = fuse(once, view(at=turned))
+    assert posterior(posterior(0.5, MISS), MISS) < MemoryOptions().min_existence
+    assert len(twice.segments) == 1
+    np.testing.assert_array_equal(twice.segments[0].endpoints, aside.endpoints)
+    assert twice.existence == (0.5,)
+
+
+def test_a_segment_behind_what_the_new_view_sees_is_unchanged() -> None:
+    behind = seg((6.0, -0.2), (6.0, 0.2))
+    wall = seg((3.0, -1.0), (3.0, 1.0))
+    memory = fuse(ModelMemory.empty(), view((behind,)))
+    later = fuse(memory, view((wall,)))  # the wall hides it now
+    assert later.existence == (0.5, 0.5)
+
+
+def test_the_near_blind_zone_is_not_seen_free() -> None:
+    near = seg((1.0, -0.1), (1.0, 0.1))
+    memory = fuse(ModelMemory.empty(), view((near,)))
+    assert fuse(memory, view(), near_range_m=1.5).existence == (0.5,)
+    assert fuse(memory, view()).existence == pytest.approx((posterior(0.5, MISS),))
+
+
+def test_memory_size_stays_bounded_over_500_steps() -> None:
+    rng = np.random.default_rng(16)
+    opts = MemoryOptions(max_segments=120, max_ambiguous=10, max_contacts=5, max_seen_vertices=400)
+    memory = ModelMemory.empty()
+    for k in range(500):
+        x, heading = 0.2 * k, 0.3 * math.sin(k / 25)
+        ahead = rng.uniform([x + 2, -3], [x + 6, 3], size=(30, 2))
+        dirs = rng.normal(size=(30, 2)) * 0.2
+        segs = tuple(seg(p, p + d) for p, d in zip(ahead, dirs, strict=True))
+        ambs = tuple(
+            AmbiguousSegment(
+                candidates=(
+                    seg(p, p + np.array([0.1, 0.3])),
+                    seg(p + 1, p + 1.2),
+                ),
+                probabilities=(0.6, 0.4),
+            )
+            for p in rng.uniform([x + 2, -2], [x + 5, 2], size=(2, 2))
+        )
+        memory = fuse(memory, view(segs, ambs, at=(x, 0.0, heading)), opts)
+        if k % 7 == 0:
+            memory = add_contact(memory, (x, 0.5 * (k % 3)), (0.0, 1.0), height_m=0.4, options=opts)
+        assert len(memory.segments) <= 120 and len(memory.ambiguous) <= 10
+        assert len(memory.contacts) <= 5
+        assert shapely.get_num_coordinates(memory.seen) <= 400
+    assert len(memory.segments) == 120 and memory.views == 500
+
+
+def test_the_bound_drops_the_lowest_existence_then_the_oldest() -> None:
+    a, b, c = (
+        seg((3.0, -1.5), (3.0, -1.2)),
+        seg((3.0, 0.0), (3.0, 0.3)),
+        seg((3.0, 1.2), (3.0, 1.5)),
+    )
+    memory = fuse(ModelMemory.empty(), view((a, b)), max_segments=2)
+    memory = fuse(memory, view((a, c), at=(0.0, 0.0, 0.0)), max_segments=2)
+    # b was seen free (lost), a seen again (gained), c new: b goes
+    assert [s.endpoints[0, 1] for s in memory.segments] == pytest.approx([-1.5, 1.2], abs=0.01)
+    # equal existence: the older one goes
+    old = fuse(ModelMemory.empty(), view((a,), at=(0.0, 0.0, 2.0)), max_segments=2)
+    old = fuse(old, view((b,), at=(0.0, 0.0, -2.0)), max_segments=2)
+    old = fuse(old, view((c,), at=(0.0, 0.0, math.pi)), max_segments=2)
+    assert [s.endpoints[0, 1] for s in old.segments] == pytest.approx([0.0, 1.2])
+
+
+def test_fuse_is_deterministic_and_does_not_mutate_its_inputs() -> None:
+    rng = np.random.default_rng(3)
+    pts = rng.uniform([2, -2], [6, 2], size=(20, 2))
+    obs1 = view(tuple(seg(p, p + np.array([0.2, 0.1])) for p in pts))
+    obs2 = view(
+        tuple(seg(p + 0.01, p + np.array([0.21, 0.1])) for p in pts[:12]), at=(0.5, 0.1, 0.1)
+    )
+    memory = fuse(ModelMemory.empty(), obs1)
+    before = [s.endpoints.copy() for s in memory.segments], memory.existence, memory.seen.wkb
+    out1, out2 = fuse(memory, obs2), fuse(memory, obs2)
+    assert [s.endpoints.tolist() for s in memory.segments] == [e.tolist() for e in before[0]]
+    assert memory.existence == before[1] and memory.seen.wkb == before[2]
+    assert out1.existence == out2.existence and out1.last_seen == out2.last_seen
+    for s1, s2 in zip(out1.segments, out2.segments, strict=True):
+        np.testing.assert_array_equal(s1.endpoints, s2.endpoints)
+        np.testing.assert_array_equal(s1.cov, s2.cov)
+    assert shapely.equals_exact(out1.seen, out2.seen, 0.0)
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("gate_chi2", -1.0),
+        ("detection_probability", 1.5),
+        ("detection_probability", 0.01),  # not above the false-match rate
+        ("false_match_rate", 0.0),
+        ("min_existence", 0.7),
+        ("report_existence", 0.05),
+        ("max_existence", 0.4),
+        ("resolve_probability", 0.3),
+        ("max_segments", 0),
+        ("n_rays", 2.5),
+        ("free_margin_m", -0.1),
+        ("seen_tolerance_m", 0.0),
+        ("contact_length_m", math.nan),
+    ],
+)
+def test_bad_options_raise_naming_the_field(field: str, value: float) -> None:
+    with pytest.raises(ValueError, match=field):
+        MemoryOptions(**{field: value})
+    with pytest.raises(ValueError, match=field):
+        fuse(ModelMemory.empty(), view(), **{field: value})
+
+
+def test_bad_arguments_raise_naming_them() -> None:
+    with pytest.raises(ValueError, match="memory"):
+        fuse("memory", view())  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="observation"):
+        fuse(ModelMemory.empty(), None)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="unknown MemoryOptions"):
+        fuse(ModelMemory.empty(), view(), gate=3.0)
+    with pytest.raises(ValueError, match="normal_xy"):
+        add_contact(ModelMemory.empty(), (1.0, 0.0), (0.0, 0.0), height_m=0.3)
+    with pytest.raises(ValueError, match="height_m"):
+        add_contact(ModelMemory.empty(), (1.0, 0.0), (1.0, 0.0), height_m=-1.0)
+    with pytest.raises(ValueError, match="existence"):
+        ModelMemory(segments=(seg((0, 0), (1, 0)),), existence=(), last_seen=(1,))
+    with pytest.raises(ValueError, match="bounds"):
+        ModelMemory.empty().unknown([0, 1])
+
+
+def test_an_empty_view_into_an_empty_memory_gives_an_empty_valid_memory_and_model() -> None:
+    memory = fuse(ModelMemory.empty(), FloorObservation())
+    assert memory.segments == () and memory.ambiguous == () and memory.contacts == ()
+    assert memory.views == 1
+    wedge = math.radians(64.0) / 2 * 8.0**2  # the whole field of view, seen free
+    assert memory.seen.area == pytest.approx(wedge, rel=0.01)
+    model = build_memory_model(memory, 0.5)
+    assert len(model.situations) == 1 and model.most_probable.obstacles == ()
+    assert build_memory_model(ModelMemory.empty(), 0.5).most_probable.obstacles == ()
+
+
+def test_unknown_is_the_floor_never_seen() -> None:
+    memory = fuse(ModelMemory.empty(), view((seg((4.0, -1.0), (4.0, 1.0)),)))
+    bounds = shapely.box(-10, -10, 10, 10)
+    unknown = memory.unknown(bounds)
+    assert unknown.area == pytest.approx(bounds.area - memory.seen.area)
+    assert not unknown.contains(shapely.Point(2.0, 0.0))  # in view, in front of the wall
+    assert unknown.contains(shapely.Point(6.0, 0.0))  # behind the wall
+    assert unknown.contains(shapely.Point(-2.0, 0.0))  # behind the robot
+
+
+def test_a_contact_is_a_short_certain_segment_across_its_normal() -> None:
+    memory = add_contact(ModelMemory.empty(), (2.0, 1.0), (0.0, -3.0), height_m=0.4)
+    (c,) = memory.contacts
+    np.testing.assert_allclose(c.endpoints, [[1.9, 1.0], [2.1, 1.0]], atol=1e-12)
+    np.testing.assert_allclose(c.cov, np.tile(np.eye(2) * 0.02**2, (2, 1, 1)), atol=1e-15)
+    np.testing.assert_array_equal(c.height_m, [0.0, 0.4])
+    # seen free again and again: never faded
+    for _ in range(5):
+        memory = fuse(memory, view(at=(0.0, 1.0, 0.0)))
+    assert len(memory.contacts) == 1
+    model = build_memory_model(memory, 0.5)
+    assert len(model.most_probable.obstacles) == 1
+    # a second bump within contact_merge_m replaces the first
+    memory = add_contact(memory, (2.05, 1.0), (0.0, 1.0), height_m=0.4)
+    assert len(memory.contacts) == 1
+    np.testing.assert_allclose(memory.contacts[0].midpoint, [2.05, 1.0], atol=1e-12)
+    assert len(add_contact(memory, (3.0, 1.0), (1.0, 0.0), height_m=0.4).contacts) == 2
+
+
+def _seen_from(points: np.ndarray, vp: np.ndarray) -> np.ndarray:
+    """Stereo-like endpoint covariances: depth sigma 2 cm x d^2, lateral 5 mm x d."""
+    out = []
+    for p in points:
+        d = p - vp
+        dist = float(np.hypot(*d))
+        u = d / dist
+        n = np.array([-u[1], u[0]])
+        out.append((0.02 * dist**2) ** 2 * np.outer(u, u) + (0.005 * dist) ** 2 * np.outer(n, n))
+    return np.array(out)
+
+
+def test_a_critical_regions_width_std_narrows_as_views_accumulate() -> None:
+    left = np.array([[5.0, -0.8], [5.0, -0.25]])
+    right = np.array([[5.0, 0.25], [5.0, 0.8]])  # a 0.5 m gap: the robot's width
+    memory = ModelMemory.empty()
+    stds = []
+    for x in np.arange(0.0, 3.01, 0.5):
+        vp = np.array([x, 0.0])
+        segs = tuple(
+            FloorSegment(endpoints=ends, cov=_seen_from(ends, vp)) for ends in (left, right)
+        )
+        memory = fuse(memory, view(segs, at=(x, 0.0, 0.0)))
+        assert len(memory.segments) == 2
+        (region,) = build_memory_model(memory, 0.5).most_probable.critical_regions
+        stds.append(region.width_std_m)
+    assert np.all(np.diff(stds) < 0)
+    assert stds[-1] < 0.5 * stds[0]
