@@ -22,7 +22,8 @@ The raster of the fused model (``obs["memory_raster"]``, :func:`rasterize_memory
 three channels, drawn from the fused model, and a fourth:
 
 3. **Unknown**: 255 where the floor has never been seen in the episode (outside the memory's
-   seen area, so also the floor near the robot that no view has covered), 0 where it has.
+   seen area, so also the floor near the robot that no view has covered), 0 where it has; a
+   pixel the seen area's boundary crosses counts as unknown.
 
 All drawing is OpenCV (``fillPoly``, ``polylines``) with 4 bits of sub-pixel precision; no
 per-pixel Python loops.
@@ -214,7 +215,10 @@ def unknown_channel(
     ]
     rings = [r for r in rings if r.shape[0] >= 3]
     if rings:  # one call: the even-odd fill leaves the holes out
-        cv2.fillPoly(out, [_fixed(r, A, b) for r in rings], 0, cv2.LINE_8, _SHIFT)
+        pix = [_fixed(r, A, b) for r in rings]
+        cv2.fillPoly(out, pix, 0, cv2.LINE_8, _SHIFT)
+        # the fill covers every pixel its edges touch: those on the boundary count as unknown
+        cv2.polylines(out, pix, True, UNKNOWN_VALUE, 1, cv2.LINE_8, _SHIFT)
     return out
 
 
