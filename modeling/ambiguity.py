@@ -5,7 +5,9 @@ those with one effect, and the independent groups.
   candidates, ordered by distance from the viewpoint, are displaced consistently (the k-th
   displacement of each agrees within ``0.1 m + 0.2 |displacement|``) and lie within a robot width
   of each other form one :class:`Unit`; a unit chooses one candidate rank for all its members and
-  counts once (its probabilities are the mean of its members').
+  counts once (its probabilities are the mean of its members'). A segment whose candidates do not
+  hold all its mass (``p_none > 0``) has one more choice, "none", with no item and an empty effect;
+  it moves together only with segments that have it too.
 * The *effect* of a unit's choice on the base model is the set of changes of space passability it
   causes (:class:`Effect`): a merge of two obstacles it is impassable to both (space becomes
   impassable), a new undecided relation between an obstacle it joins and another one where the
@@ -39,6 +41,7 @@ from modeling.relations import SegmentRelations, closest_points
 from modeling.validation import FloatArray
 
 __all__ = [
+    "NONE",
     "Effect",
     "Elimination",
     "Unit",
@@ -50,6 +53,9 @@ __all__ = [
 
 _IMP = int(Relation.IMPASSABLE)
 _PAS = int(Relation.PASSABLE)
+
+NONE = -1
+"""The candidate index of the "none" choice: the segment is no obstacle here (``p_none``)."""
 
 Adjacency = dict[int, dict[int, int]]  # candidate item -> {other item: relation kind}
 
@@ -70,12 +76,17 @@ Signature = frozenset[Change]
 class Unit:
     """Ambiguous segments moving together (Fig. 7): one choice of candidate rank for all.
 
+    When its members' candidates do not hold all their mass (``AmbiguousSegment.p_none > 0``),
+    the last choice is "none": no item, every member mapped to :data:`NONE`.
+
     Attributes:
         members: The ambiguous indices, ascending.
         items: ``items[k]``: the items of the members' candidates of rank ``k`` (rank: order of
-            distance from the viewpoint).
-        probabilities: (m,) probability of each rank (the members' mean, normalised).
-        choices: ``choices[k]``: ``{ambiguous index: candidate index}`` of rank ``k``.
+            distance from the viewpoint); ``()`` for the "none" choice.
+        probabilities: (m,) probability of each choice (the members' mean, normalised to 1 over
+            the candidates and "none").
+        choices: ``choices[k]``: ``{ambiguous index: candidate index}`` of choice ``k``
+            (:data:`NONE` for "none").
     """
 
     members: tuple[int, ...]
@@ -134,16 +145,27 @@ def units_moving_together(
             dist = [mid_dist[x] for x in cand_item[a]]
             order_of[a] = sorted(range(len(dist)), key=dist.__getitem__)
     amb = observation.ambiguous
+    has_none = {a: amb[a].p_none > 0.0 for a in live}
     units = []
-    for members in _moving_together(live, cand_item, order_of, ends, width):
+    for members in _moving_together(live, cand_item, order_of, has_none, ends, width):
         m = len(cand_item[members[0]])
-        pr = np.mean([np.asarray(amb[a].probabilities)[order_of[a]] for a in members], axis=0)
+        pr = np.mean(
+            [[*np.asarray(amb[a].probabilities)[order_of[a]], amb[a].p_none] for a in members],
+            axis=0,
+        )
+        items = [tuple(cand_item[a][order_of[a][k]] for a in members) for k in range(m)]
+        choices = [{a: order_of[a][k] for a in members} for k in range(m)]
+        if has_none[members[0]]:  # "none": one more choice, with no item
+            items.append(())
+            choices.append(dict.fromkeys(members, NONE))
+        else:
+            pr = pr[:m]
         units.append(
             Unit(
                 members=tuple(members),
-                items=tuple(tuple(cand_item[a][order_of[a][k]] for a in members) for k in range(m)),
+                items=tuple(items),
                 probabilities=pr / pr.sum(),
-                choices=tuple({a: order_of[a][k] for a in members} for k in range(m)),
+                choices=tuple(choices),
             )
         )
     return units
@@ -153,19 +175,21 @@ def _moving_together(
     live: list[int],
     cand_item: list[list[int]],
     order_of: dict[int, list[int]],
+    has_none: dict[int, bool],
     ends: FloatArray,
     width: float,
 ) -> list[list[int]]:
-    """Fig. 7: the members (ambiguous indices) of each unit, vectorised per candidate count."""
+    """Fig. 7: the members (ambiguous indices) of each unit, vectorised per candidate count (and
+    whether "none" is a choice: only segments with the same choices move together)."""
     if not live:
         return []
     pos = {a: k for k, a in enumerate(live)}
     ii: list[np.ndarray] = []
     jj: list[np.ndarray] = []
-    by_m: dict[int, list[int]] = {}
+    by_m: dict[tuple[int, bool], list[int]] = {}
     for a in live:
-        by_m.setdefault(len(cand_item[a]), []).append(a)
-    for m, members in by_m.items():
+        by_m.setdefault((len(cand_item[a]), has_none[a]), []).append(a)
+    for (m, _), members in by_m.items():
         if len(members) < 2:
             continue
         E = np.stack([ends[cand_item[a]][order_of[a]] for a in members])  # (q, m, 2, 2)

@@ -17,8 +17,10 @@ environment using data from a sequence of observations"). :func:`fuse` folds one
    ``false_match_rate``); lying in the floor the new view sees free and not detected
    ``(1 - pd) / (1 - pf)``; otherwise 1 (unchanged). A segment is seen free when its two
    endpoints and its midpoint are (:mod:`modeling.memory_visibility`: in the field of view, in
-   range, beyond ``near_range_m``, at least ``free_margin_m`` short of what the view sees along
-   that ray; the occluders are the new view's segments and all its candidates). Below
+   range, beyond ``near_range_m`` and below the image's lower edge (``head_height_m``,
+   ``half_vfov_rad``, at the segment's top height), at least ``free_margin_m`` short of what
+   the view sees along that ray; the occluders are the new view's segments and all its
+   candidates). Below
    ``min_existence`` a segment is forgotten; existence is capped at ``max_existence`` so that
    enough contrary evidence always fades a segment.
 3. **Ambiguity**: a new ambiguous segment is associated with the remembered ambiguity whose
@@ -29,10 +31,15 @@ environment using data from a sequence of observations"). :func:`fuse` folds one
    new unambiguous segment coincides with it, ``1 + q_j (pd / pf - 1)`` when candidate ``j``
    (probability ``q_j``) of the new ambiguous segment does, ``(1 - pd) / (1 - pf)`` when it lies
    in the floor seen free and nothing coincides, 1 otherwise. A candidate whose posterior reaches
-   ``resolve_probability`` becomes an ordinary segment (existence: its posterior); when the none
-   mass does, the ambiguity goes. Candidates below ``min_candidate_probability`` are pruned
-   (at least two stay) and their mass renormalised. Unassociated new ambiguities enter as they
-   are (their ``p_none`` raised to ``none_prior`` when that is above it).
+   ``resolve_probability`` becomes an ordinary segment (existence: its posterior; fused into
+   a remembered segment it coincides with); when the none mass does, the ambiguity goes.
+   Candidates below ``min_candidate_probability`` are pruned (two stay while the none mass is 0,
+   one otherwise) and the rest renormalised. A new ambiguity that matches no remembered one
+   enters with its ``p_none`` raised to ``none_prior``, re-weighted by the remembered segments
+   its candidates coincide with (:func:`~modeling.memory_ambiguity.explain_new`: candidate ``j``
+   on a segment of existence ``e`` by ``1 + e (pd / pf - 1)``, the segment by
+   ``1 + q_j (pd / pf - 1)``); when that resolves it to such a candidate, it is that segment
+   seen again and fuses into it.
 4. **Seen floor**: :attr:`ModelMemory.seen` is the union of every view's visible area (one
    shapely geometry, simplified to ``seen_tolerance_m`` and coarser while it has more than
    ``max_seen_vertices`` vertices); floor never seen is unknown (:meth:`ModelMemory.unknown`).
@@ -65,13 +72,17 @@ import numpy as np
 import shapely
 from numpy.typing import ArrayLike
 
-from modeling.memory_ambiguity import candidates_of, reweight
+from modeling.memory_ambiguity import Candidates, candidates_of, explain_new, reweight
 from modeling.memory_association import (
+    SegmentStack,
     assign,
+    concat,
     fused_segments,
     gated_pairs,
     odds_update,
+    replaced,
     stack_of,
+    take,
 )
 from modeling.memory_visibility import Visibility, visibility
 from modeling.model import ModelOptions, build_model
@@ -101,9 +112,12 @@ class MemoryOptions:
         max_existence: Existence is capped here, in (initial_existence, 1).
         resolve_probability: A candidate (or the none mass) at least this probable resolves its
             ambiguity, in (0.5, 1).
-        min_candidate_probability: Candidates below this are pruned (two always stay), in [0, 0.5).
+        min_candidate_probability: Candidates below this are pruned (two stay while
+            ``p_none`` is 0, one otherwise), in [0, 0.5).
         none_prior: A new ambiguity's ``p_none`` is raised to at least this (its candidates
-            scaled down), in [0, 1).
+            scaled down), in [0, 1). A new ambiguity may be a false match altogether; with the
+            default (the false-match rate) one whose every candidate is seen free goes after
+            four such views (with 0 it would stay until the bound drops it).
         max_segments: At most this many remembered segments (>= 1).
         max_ambiguous: At most this many open ambiguities (>= 0).
         max_contacts: At most this many contacts (>= 0).
@@ -111,6 +125,14 @@ class MemoryOptions:
             metres (>= 0).
         near_range_m: Floor nearer than this to the viewpoint is not seen (it is out of the
             image), metres (>= 0).
+        head_height_m: Height of the camera above the floor, metres (>= 0; 0: no vertical
+            limit). With it, a point of height ``h`` nearer than ``(head_height_m - h) /
+            tan(half_vfov_rad)`` is below the image: a segment is judged at its top height (a low
+            box close to the robot is out of view, a tall shelf is not), the floor at 0. For
+            the env's level head: 0.8 m and ``atan(120 / 256)`` = 0.43 rad (the floor seen from
+            1.7 m); a tilted head needs the limit of its lower image edge.
+        half_vfov_rad: Half the vertical field of view below the optical axis, radians, in
+            (0, pi/2).
         n_rays: Rays of the visibility sweep across the field of view (>= 3).
         seen_tolerance_m: Simplification tolerance of the seen floor, metres (> 0).
         max_seen_vertices: The seen floor is simplified more coarsely while it has more vertices
@@ -130,12 +152,14 @@ class MemoryOptions:
     max_existence: float = 0.999
     resolve_probability: float = 0.95
     min_candidate_probability: float = 0.01
-    none_prior: float = 0.0
+    none_prior: float = 0.05
     max_segments: int = 400
     max_ambiguous: int = 64
     max_contacts: int = 64
     free_margin_m: float = 0.1
     near_range_m: float = 0.0
+    head_height_m: float = 0.0
+    half_vfov_rad: float = 0.43
     n_rays: int = 181
     seen_tolerance_m: float = 0.05
     max_seen_vertices: int = 2000
@@ -177,7 +201,8 @@ class MemoryOptions:
             ("max_seen_vertices", 16),
         ):
             object.__setattr__(self, name, integer(getattr(self, name), name, low=low))
-        for name in ("free_margin_m", "near_range_m", "contact_merge_m"):
+        unit("half_vfov_rad", high=math.pi / 2)
+        for name in ("free_margin_m", "near_range_m", "contact_merge_m", "head_height_m"):
             object.__setattr__(self, name, positive(getattr(self, name), name, allow_zero=True))
         for name in ("seen_tolerance_m", "contact_length_m", "contact_sigma_m"):
             object.__setattr__(self, name, positive(getattr(self, name), name))
@@ -205,6 +230,9 @@ class ModelMemory:
             candidate counts from its ambiguity).
         ambiguous_seen: The view that last detected each ambiguity.
         report_existence: :meth:`observation` keeps the segments at least this probable.
+        segment_arrays: The segments as arrays (derived: computed from ``segments`` when None;
+            :func:`fuse` passes the arrays it has).
+        candidate_arrays: The ambiguities' candidates as arrays (derived likewise).
     """
 
     segments: tuple[FloorSegment, ...] = ()
@@ -219,9 +247,17 @@ class ModelMemory:
     last_seen: tuple[int, ...] = ()
     ambiguous_seen: tuple[int, ...] = ()
     report_existence: float = 0.3
+    segment_arrays: SegmentStack | None = field(default=None, repr=False)
+    candidate_arrays: Candidates | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         n = len(self.segments)
+        if self.segment_arrays is None:
+            object.__setattr__(self, "segment_arrays", stack_of(self.segments))
+        elif self.segment_arrays.ends.shape[0] != n:
+            raise ValueError(f"segment_arrays must have {n} rows")
+        if self.candidate_arrays is None:
+            object.__setattr__(self, "candidate_arrays", candidates_of(self.ambiguous))
         for name, length in (
             ("existence", n),
             ("last_seen", n),
@@ -231,7 +267,7 @@ class ModelMemory:
                 raise ValueError(
                     f"{name} must have {length} entries, got {len(getattr(self, name))}"
                 )
-        if any(not 0.0 <= e <= 1.0 for e in self.existence):
+        if n and not (0.0 <= min(self.existence) and max(self.existence) <= 1.0):
             raise ValueError("existence must lie in [0, 1]")
         if not isinstance(self.seen, shapely.Geometry):
             raise ValueError(f"seen must be a shapely geometry, got {type(self.seen).__name__}")
@@ -270,13 +306,29 @@ class ModelMemory:
 
 
 # ------------------------------------------------------------------------------- fusion
-def _seen_free(vis: Visibility, ends: FloatArray, margin_m: float) -> np.ndarray:
-    """(n,) bool: both endpoints and the midpoint of each segment (n, 2, 2) are seen free."""
+def _near_limit(opts: MemoryOptions, top_m: FloatArray | float) -> FloatArray:
+    """The distance (metres) within which a point of height ``top_m`` is out of the image: the
+    camera's depression limit ``(head_height_m - top) / tan(half_vfov_rad)`` (none when
+    ``head_height_m`` is 0), at least ``near_range_m``."""
+    top = np.asarray(top_m, dtype=np.float64)
+    if opts.head_height_m <= 0.0:
+        return np.full(top.shape, opts.near_range_m)
+    out: FloatArray = np.maximum(
+        opts.near_range_m, (opts.head_height_m - top) / math.tan(opts.half_vfov_rad)
+    )
+    return out
+
+
+def _seen_free(vis: Visibility, segs: SegmentStack, opts: MemoryOptions) -> np.ndarray:
+    """(n,) bool: both endpoints and the midpoint of each segment are seen free, each judged
+    at the segment's top height (the part of an obstacle that could be seen)."""
+    ends = segs.ends
     n = ends.shape[0]
     if n == 0:
         return np.zeros(0, dtype=bool)
     pts = np.concatenate([ends[:, 0], ends[:, 1], ends.mean(axis=1)])
-    out: np.ndarray = np.all(vis.seen_free(pts, margin_m).reshape(3, n), axis=0)
+    near = np.tile(_near_limit(opts, segs.heights.max(axis=1)), 3)
+    out: np.ndarray = np.all(vis.seen_free(pts, opts.free_margin_m, near).reshape(3, n), axis=0)
     return out
 
 
@@ -330,54 +382,84 @@ def fuse(
     new = stack_of(observation.segments)
     new_cands = candidates_of(observation.ambiguous)
     occluders = np.concatenate([new.ends, new_cands.stack.ends])
-    vis = visibility(observation, occluders, n_rays=opts.n_rays, near_m=opts.near_range_m)
+    floor_near = float(_near_limit(opts, 0.0))
+    vis = visibility(observation, occluders, n_rays=opts.n_rays, near_m=floor_near)
 
     # 1. Association of the new unambiguous segments with the remembered ones; fusion.
-    mem = stack_of(memory.segments)
+    mem = memory.segment_arrays
+    assert mem is not None and memory.candidate_arrays is not None  # set by __post_init__
     pairs = assign(gated_pairs(new.ends, new.cov, mem.ends, mem.cov, opts.gate_chi2))
     segments = list(memory.segments)
-    for k, seg in zip(pairs.cols.tolist(), fused_segments(mem, new, pairs), strict=True):
+    fused, fused_arrays = fused_segments(mem, new, pairs)
+    for k, seg in zip(pairs.cols.tolist(), fused, strict=True):
         segments[k] = seg
-    # 2. Existence: seen again gains, seen free and not detected loses, unseen unchanged.
-    detected = np.zeros(len(segments), dtype=bool)
-    detected[pairs.cols] = True
-    ratio = np.ones(len(segments))
-    ratio[detected] = pd / pf
-    ratio[~detected & _seen_free(vis, mem.ends, opts.free_margin_m)] = (1.0 - pd) / (1.0 - pf)
-    existence = odds_update(
-        np.asarray(memory.existence, dtype=np.float64), ratio, opts.max_existence
-    )
-    last_seen = np.where(detected, view, np.asarray(memory.last_seen, dtype=np.int64))
-    # 3. Ambiguities: the unmatched new segments and the new ambiguous ones as evidence.
+    current = replaced(mem, pairs.cols, fused_arrays)
+    # 2. Ambiguities: the unmatched new segments and the new ambiguous ones as evidence on the
+    # remembered ambiguities; the new ambiguities that match none against the segments.
     unmatched = np.ones(new.ends.shape[0], dtype=bool)
     unmatched[pairs.rows] = False
     rest = np.flatnonzero(unmatched)
-    rest_stack = type(new)(*(arr[rest] for arr in new))
     amb = reweight(
         memory.ambiguous,
+        memory.candidate_arrays,
         memory.ambiguous_seen,
-        rest_stack,
+        take(new, rest),
         observation.ambiguous,
-        lambda ends: _seen_free(vis, ends, opts.free_margin_m),
+        new_cands,
+        lambda segs: _seen_free(vis, segs, opts),
         opts=opts,
         view=view,
     )
-    # 4. New segments (neither associated nor evidence for a candidate) and resolved candidates.
+    prior = np.asarray(memory.existence, dtype=np.float64)
+    fresh = explain_new(observation.ambiguous, amb, current, prior, opts)
+    absorbed = fresh.absorbed
+    if absorbed.rows.shape[0]:
+        more, more_arrays = fused_segments(current, amb.new_candidates.stack, absorbed)
+        for k, seg in zip(absorbed.cols.tolist(), more, strict=True):
+            segments[k] = seg
+        current = replaced(current, absorbed.cols, more_arrays)
+    # 3. Existence: seen again gains, seen free and not detected loses, unseen unchanged.
+    detected = np.zeros(len(segments), dtype=bool)
+    detected[pairs.cols] = True
+    touched = detected | (fresh.segment_ratio != 1.0)  # absorbed ones among them
+    ratio = np.where(detected, pd / pf, 1.0)
+    ratio[~touched & _seen_free(vis, mem, opts)] = (1.0 - pd) / (1.0 - pf)
+    existence = odds_update(prior, ratio * fresh.segment_ratio, opts.max_existence)
+    last_seen = np.where(touched, view, np.asarray(memory.last_seen, dtype=np.int64))
+    # 4. Resolved candidates: a remembered segment seen again when they coincide with one, new
+    # segments otherwise; then the new segments (neither associated nor evidence for a
+    # candidate).
+    resolved = [(seg, p, s) for seg, p, s in amb.resolved] + [
+        (seg, p, view) for seg, p in fresh.resolved
+    ]
+    res_arrays = stack_of([seg for seg, _, _ in resolved])
+    res_pairs = assign(
+        gated_pairs(res_arrays.ends, res_arrays.cov, current.ends, current.cov, opts.gate_chi2)
+    )
+    if res_pairs.rows.shape[0]:
+        more, more_arrays = fused_segments(current, res_arrays, res_pairs)
+        for k, r, seg in zip(res_pairs.cols.tolist(), res_pairs.rows.tolist(), more, strict=True):
+            segments[k] = seg
+            existence[k] = max(existence[k], min(resolved[r][1], opts.max_existence))
+            last_seen[k] = max(last_seen[k], resolved[r][2])
+        current = replaced(current, res_pairs.cols, more_arrays)
+    adding = np.setdiff1d(np.arange(len(resolved)), res_pairs.rows)
     entering = np.delete(rest, amb.consumed)
     all_segments = segments + [observation.segments[i] for i in entering.tolist()]
-    all_segments += [seg for seg, _, _ in amb.resolved]
+    all_segments += [resolved[i][0] for i in adding.tolist()]
+    arrays = concat(current, take(new, entering), take(res_arrays, adding))
     all_existence = np.concatenate(
         [
             existence,
             np.full(entering.shape[0], opts.initial_existence),
-            np.array([min(p, opts.max_existence) for _, p, _ in amb.resolved]),
+            np.array([min(resolved[i][1], opts.max_existence) for i in adding.tolist()]),
         ]
     )
     all_seen = np.concatenate(
         [
             last_seen,
             np.full(entering.shape[0], view, dtype=np.int64),
-            np.array([s for _, _, s in amb.resolved], dtype=np.int64),
+            np.array([resolved[i][2] for i in adding.tolist()], dtype=np.int64),
         ]
     )
     # 5. Forget the faded, then bound the size (lowest existence, then least recently seen).
@@ -385,9 +467,10 @@ def fuse(
     keep = alive[
         _keep_bounded(alive.shape[0], opts.max_segments, (all_existence[alive], all_seen[alive]))
     ]
-    ambiguous, amb_seen = amb.ambiguous, amb.seen
+    ambiguous = amb.ambiguous + tuple(fresh.ambiguous)
+    amb_seen = amb.seen + (view,) * len(fresh.ambiguous)
     if len(ambiguous) > opts.max_ambiguous:
-        none = np.array([1.0 - sum(a.probabilities) for a in ambiguous])
+        none = np.array([a.p_none for a in ambiguous])
         kept = _keep_bounded(
             len(ambiguous), opts.max_ambiguous, (-none, np.asarray(amb_seen, dtype=np.int64))
         ).tolist()
@@ -406,6 +489,7 @@ def fuse(
         last_seen=tuple(all_seen[keep].tolist()),
         ambiguous_seen=tuple(amb_seen),
         report_existence=opts.report_existence,
+        segment_arrays=take(arrays, keep),
     )
 
 

@@ -17,6 +17,8 @@ Frames: world, metres; covariances m^2.
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -30,10 +32,20 @@ from modeling.memory_association import (
     stack_of,
     subset,
 )
-from modeling.observation import AmbiguousSegment, FloorSegment
+from modeling.observation import P_NONE_ATOL, AmbiguousSegment, FloorSegment
 from modeling.validation import FloatArray
 
-__all__ = ["AmbiguityUpdate", "Candidates", "candidates_of", "reweight"]
+__all__ = [
+    "AmbiguityUpdate",
+    "Candidates",
+    "NewAmbiguities",
+    "candidates_of",
+    "explain_new",
+    "none_mass",
+    "posterior",
+    "reweight",
+    "trusted_ambiguous",
+]
 
 
 class Candidates(NamedTuple):
@@ -74,12 +86,16 @@ class AmbiguityUpdate(NamedTuple):
             evidence for it, not new segments).
         resolved: The candidates that resolved their ambiguity, as ``(segment, posterior,
             last_seen)``.
+        new_unmatched: Indices of the new view's ambiguities that matched no remembered one.
+        new_candidates: The new view's candidates, flattened.
     """
 
     ambiguous: tuple[AmbiguousSegment, ...]
     seen: tuple[int, ...]
     consumed: np.ndarray
     resolved: list[tuple[FloorSegment, float, int]]
+    new_unmatched: np.ndarray
+    new_candidates: Candidates
 
 
 def _ambiguity_pairs(
@@ -98,9 +114,11 @@ def _ambiguity_pairs(
 
 def reweight(
     remembered: tuple[AmbiguousSegment, ...],
+    mem: Candidates,
     remembered_seen: tuple[int, ...],
     new_segments: SegmentStack,
     new_ambiguous: tuple[AmbiguousSegment, ...],
+    new: Candidates,
     vis_free: Any,
     *,
     opts: Any,
@@ -110,16 +128,17 @@ def reweight(
 
     Args:
         remembered: The open ambiguities of the memory.
+        mem: Their candidates (:func:`candidates_of`).
         remembered_seen: The view that last detected each.
         new_segments: The new view's unambiguous segments that matched no remembered segment.
         new_ambiguous: The new view's ambiguous segments.
-        vis_free: A function (n, 2, 2) ends -> (n,) bool, "seen free by the new view".
+        new: Their candidates (:func:`candidates_of`).
+        vis_free: A function :class:`SegmentStack` -> (n,) bool, "seen free by the new view".
         opts: The :class:`~modeling.memory.MemoryOptions`.
         view: The number of the new view (1-based).
     """
     pd, pf, gate = opts.detection_probability, opts.false_match_rate, opts.gate_chi2
     hit_ratio = pd / pf
-    mem = candidates_of(remembered)
     n_mem = len(mem.segments)
     ratio = np.ones(n_mem)
     touched = np.zeros(n_mem, dtype=bool)
@@ -129,13 +148,12 @@ def reweight(
         gated_pairs(new_segments.ends, new_segments.cov, mem.stack.ends, mem.stack.cov, gate)
     )
     for k, seg in zip(
-        seg_pairs.cols.tolist(), fused_segments(mem.stack, new_segments, seg_pairs), strict=True
+        seg_pairs.cols.tolist(), fused_segments(mem.stack, new_segments, seg_pairs)[0], strict=True
     ):
         cand[k] = seg
     ratio[seg_pairs.cols] = hit_ratio
     touched[seg_pairs.cols] = True
     # (b) new ambiguous segments whose candidates match a remembered ambiguity's
-    new = candidates_of(new_ambiguous)
     matched_new = np.zeros(len(new_ambiguous), dtype=bool)
     pairs = gated_pairs(new.stack.ends, new.stack.cov, mem.stack.ends, mem.stack.cov, gate)
     pairs = subset(pairs, ~touched[pairs.cols])
@@ -145,14 +163,14 @@ def reweight(
         partner[chosen.rows] = chosen.cols
         matched_new[chosen.rows] = True
         cand_pairs = assign(subset(pairs, partner[new.owner[pairs.rows]] == mem.owner[pairs.cols]))
-        fused = fused_segments(mem.stack, new.stack, cand_pairs)
+        fused, _ = fused_segments(mem.stack, new.stack, cand_pairs)
         for k, seg in zip(cand_pairs.cols.tolist(), fused, strict=True):
             cand[k] = seg
         ratio[cand_pairs.cols] = 1.0 + new.prob[cand_pairs.rows] * (hit_ratio - 1.0)
         touched[cand_pairs.cols] = True
     # (c) candidates in the floor seen free, not detected
     if n_mem:
-        free = ~touched & vis_free(mem.stack.ends)
+        free = ~touched & vis_free(mem.stack)
         ratio[free] = (1.0 - pd) / (1.0 - pf)
     # (d) the posterior of each remembered ambiguity; resolution; pruning
     out: list[AmbiguousSegment] = []
@@ -169,43 +187,189 @@ def reweight(
         if all(r == 1.0 for r in ratio_l[start:stop]):
             out.append(amb)
             seen.append(last)
-            start = stop
-            continue
-        p = np.array(prob_l[start:stop]) * np.array(ratio_l[start:stop])
-        none = max(0.0, 1.0 - sum(prob_l[start:stop]))
-        total = float(p.sum()) + none
-        p, none = p / total, none / total
-        segs = cand[start:stop]
+        else:
+            post = posterior(cand[start:stop], prob_l[start:stop], ratio_l[start:stop], opts)
+            if isinstance(post, AmbiguousSegment):
+                out.append(post)
+                seen.append(last)
+            elif post is not None:
+                resolved.append((post[0], post[1], last))
         start = stop
-        best = int(np.argmax(p))
-        if p[best] >= opts.resolve_probability:
-            resolved.append((segs[best], float(p[best]), last))
-            continue
-        if none >= opts.resolve_probability:
-            continue
-        order = np.argsort(-p, kind="stable")
-        keep = np.sort(
-            order[(p[order] >= opts.min_candidate_probability) | (np.arange(p.shape[0]) < 2)]
-        )
-        if keep.shape[0] < p.shape[0]:
-            total = float(p[keep].sum()) + none
-            p, none = p / total, none / total
-        out.append(
-            AmbiguousSegment(
-                candidates=tuple(segs[i] for i in keep.tolist()),
-                probabilities=tuple(p[keep].tolist()),
-            )
-        )
-        seen.append(last)
-    # (e) the new ambiguous segments that matched no remembered ambiguity enter as they are
-    for b, amb in enumerate(new_ambiguous):
-        if matched_new[b]:
-            continue
-        out.append(_with_none_prior(amb, opts.none_prior))
-        seen.append(view)
     return AmbiguityUpdate(
-        ambiguous=tuple(out), seen=tuple(seen), consumed=seg_pairs.rows, resolved=resolved
+        ambiguous=tuple(out),
+        seen=tuple(seen),
+        consumed=seg_pairs.rows,
+        resolved=resolved,
+        new_unmatched=np.flatnonzero(~matched_new),
+        new_candidates=new,
     )
+
+
+def posterior(
+    candidates: list[FloorSegment],
+    probabilities: list[float],
+    ratios: list[float],
+    opts: Any,
+) -> AmbiguousSegment | tuple[FloorSegment, float] | None:
+    """One ambiguity after the evidence ``ratios`` (one likelihood ratio per candidate, against
+    "none"): the open ambiguity (candidates below ``min_candidate_probability`` pruned; two
+    kept when the none mass is 0, one otherwise), or ``(candidate, posterior)`` when one reaches
+    ``resolve_probability``, or None when the none mass does."""
+    p = np.array(probabilities) * np.array(ratios)
+    none = none_mass(probabilities)
+    total = float(p.sum()) + none
+    p, none = p / total, none / total
+    best = int(np.argmax(p))
+    if p[best] >= opts.resolve_probability:
+        return candidates[best], float(p[best])
+    if none >= opts.resolve_probability:
+        return None
+    order = np.argsort(-p, kind="stable")
+    least = 2 if none <= P_NONE_ATOL else 1
+    keep = np.sort(
+        order[(p[order] >= opts.min_candidate_probability) | (np.arange(p.shape[0]) < least)]
+    )
+    if keep.shape[0] < p.shape[0]:
+        total = float(p[keep].sum()) + none
+        p = p / total
+    return trusted_ambiguous(tuple(candidates[i] for i in keep.tolist()), p[keep].tolist())
+
+
+_NO_PAIRS = Association(
+    rows=np.zeros(0, dtype=np.int64),
+    cols=np.zeros(0, dtype=np.int64),
+    d2=np.zeros(0),
+    swapped=np.zeros(0, dtype=bool),
+)
+
+
+class NewAmbiguities(NamedTuple):
+    """The new view's ambiguities that matched no remembered one, against the remembered
+    segments.
+
+    Attributes:
+        ambiguous: Those that stay open (re-weighted).
+        resolved: ``(candidate, posterior)`` of those resolved to a candidate that coincides with
+            no remembered segment.
+        absorbed: Pairs (rows: index into the new view's flattened candidates, cols: remembered
+            segment) of those resolved to a candidate that coincides with a remembered segment:
+            it is that segment seen again, and fuses into it.
+        segment_ratio: (n,) likelihood ratio of each remembered segment from these ambiguities
+            (``1 + q_j (pd / pf - 1)`` for a segment that candidate ``j`` coincides with).
+    """
+
+    ambiguous: list[AmbiguousSegment]
+    resolved: list[tuple[FloorSegment, float]]
+    absorbed: Association
+    segment_ratio: FloatArray
+
+
+def explain_new(
+    new_ambiguous: tuple[AmbiguousSegment, ...],
+    update: AmbiguityUpdate,
+    segments: SegmentStack,
+    existence: FloatArray,
+    opts: Any,
+) -> NewAmbiguities:
+    """The new ambiguities that matched no remembered one, re-weighted by the remembered
+    segments their candidates coincide with.
+
+    A candidate ``j`` that coincides (gate, one-to-one) with a remembered segment of existence
+    ``e >= report_existence`` gains by ``1 + e (pd / pf - 1)`` (the memory's evidence for an
+    obstacle there, taken as a soft detection), the others by 1; the segment gains by
+    ``1 + q_j (pd / pf - 1)``. An ambiguity whose posterior resolves to a coinciding candidate is
+    absorbed by that segment.
+    """
+    hit = opts.detection_probability / opts.false_match_rate
+    new = update.new_candidates
+    n_seg = segments.ends.shape[0]
+    ratio_seg = np.ones(n_seg)
+    if update.new_unmatched.shape[0] == 0:
+        return NewAmbiguities(
+            ambiguous=[], resolved=[], absorbed=_NO_PAIRS, segment_ratio=ratio_seg
+        )
+    partner = np.full(len(new.segments), -1, dtype=np.int64)
+    open_new = np.zeros(len(new_ambiguous), dtype=bool)
+    open_new[update.new_unmatched] = True
+    pairs = gated_pairs(new.stack.ends, new.stack.cov, segments.ends, segments.cov, opts.gate_chi2)
+    eligible = open_new[new.owner[pairs.rows]] & (existence[pairs.cols] >= opts.report_existence)
+    pairs = assign(subset(pairs, eligible))
+    partner[pairs.rows] = pairs.cols
+    swapped = np.zeros(len(new.segments), dtype=bool)
+    swapped[pairs.rows] = pairs.swapped
+    np.multiply.at(ratio_seg, pairs.cols, 1.0 + new.prob[pairs.rows] * (hit - 1.0))
+    out: list[AmbiguousSegment] = []
+    resolved: list[tuple[FloorSegment, float]] = []
+    absorbed: list[tuple[int, int, bool]] = []
+    offsets = np.r_[0, np.cumsum([len(a.candidates) for a in new_ambiguous])].tolist()
+    for b in update.new_unmatched.tolist():
+        amb = _with_none_prior(new_ambiguous[b], opts.none_prior)
+        lo, hi = offsets[b], offsets[b + 1]
+        ks = partner[lo:hi]
+        if not np.any(ks >= 0):
+            out.append(amb)
+            continue
+        ratios = np.where(ks >= 0, 1.0 + existence[np.maximum(ks, 0)] * (hit - 1.0), 1.0)
+        post = posterior(list(amb.candidates), list(amb.probabilities), ratios.tolist(), opts)
+        if isinstance(post, AmbiguousSegment):
+            out.append(post)
+        elif post is not None:
+            j = amb.candidates.index(post[0])
+            if ks[j] >= 0:
+                absorbed.append((lo + j, int(ks[j]), bool(swapped[lo + j])))
+            else:
+                resolved.append(post)
+    rows, cols, swap = (
+        (np.array(v) for v in zip(*absorbed, strict=True))
+        if absorbed
+        else (
+            np.zeros(0, np.int64),
+            np.zeros(0, np.int64),
+            np.zeros(0, bool),
+        )
+    )
+    return NewAmbiguities(
+        ambiguous=out,
+        resolved=resolved,
+        absorbed=Association(
+            rows=rows.astype(np.int64),
+            cols=cols.astype(np.int64),
+            d2=np.zeros(rows.shape[0]),
+            swapped=swap.astype(bool),
+        ),
+        segment_ratio=ratio_seg,
+    )
+
+
+_AMBIGUOUS_FIELDS = ("candidates", "probabilities")
+_EXTRA_FIELDS = tuple(
+    (f.name, f.default_factory() if f.default_factory is not dataclasses.MISSING else f.default)
+    for f in dataclasses.fields(AmbiguousSegment)
+    if f.name not in _AMBIGUOUS_FIELDS
+)
+
+
+def trusted_ambiguous(
+    candidates: tuple[FloorSegment, ...], probabilities: list[float]
+) -> AmbiguousSegment:
+    """An :class:`~modeling.observation.AmbiguousSegment` of a posterior computed here (at least
+    two candidates, or one with a none mass; probabilities in [0, 1] summing to at most 1 by
+    construction), made without
+    its validation (the memory re-weights every ambiguity in view at every step)."""
+    amb: AmbiguousSegment = object.__new__(AmbiguousSegment)
+    object.__setattr__(amb, "candidates", candidates)
+    object.__setattr__(amb, "probabilities", tuple(float(p) for p in probabilities))
+    for name, default in _EXTRA_FIELDS:
+        object.__setattr__(amb, name, default)
+    return amb
+
+
+def none_mass(probabilities: list[float] | tuple[float, ...]) -> float:
+    """``p_none = 1 - sum(probabilities)``, 0 below :data:`~modeling.observation.P_NONE_ATOL`
+    (as :attr:`~modeling.observation.AmbiguousSegment.p_none`: rounding is no evidence, and it
+    would grow by Bayes' rule while every candidate is seen free)."""
+    rest = 1.0 - math.fsum(probabilities)
+    return rest if rest > P_NONE_ATOL else 0.0
 
 
 def _with_none_prior(amb: AmbiguousSegment, none_prior: float) -> AmbiguousSegment:
@@ -214,6 +378,4 @@ def _with_none_prior(amb: AmbiguousSegment, none_prior: float) -> AmbiguousSegme
     if 1.0 - total >= none_prior:
         return amb
     scale = (1.0 - none_prior) / total
-    return AmbiguousSegment(
-        candidates=amb.candidates, probabilities=tuple(p * scale for p in amb.probabilities)
-    )
+    return trusted_ambiguous(amb.candidates, [p * scale for p in amb.probabilities])

@@ -34,13 +34,16 @@ __all__ = [
     "Association",
     "SegmentStack",
     "assign",
+    "concat",
     "endpoint_distances",
     "fused_segments",
     "gated_pairs",
     "gaussian_product",
     "odds_update",
+    "replaced",
     "stack_of",
     "subset",
+    "take",
     "trusted_segment",
 ]
 
@@ -256,20 +259,41 @@ def stack_of(segs: tuple[FloorSegment, ...] | list[FloorSegment]) -> SegmentStac
     )
 
 
-def fused_segments(mem: SegmentStack, new: SegmentStack, pairs: Association) -> list[FloorSegment]:
+def fused_segments(
+    mem: SegmentStack, new: SegmentStack, pairs: Association
+) -> tuple[list[FloorSegment], SegmentStack]:
     """The remembered segments ``pairs.cols`` fused with the new ones ``pairs.rows`` (aligned by
     ``pairs.swapped``): the product of the endpoint Gaussians, the larger heights, the new
-    segment's source. One segment per pair, in the pairs' order."""
+    segment's source. One segment per pair, in the pairs' order, and their arrays."""
     rows, cols, swapped = pairs.rows, pairs.cols, pairs.swapped
     if rows.shape[0] == 0:
-        return []
+        return [], stack_of([])
     ends = np.where(swapped[:, None, None], new.ends[rows][:, ::-1], new.ends[rows])
     cov = np.where(swapped[:, None, None, None], new.cov[rows][:, ::-1], new.cov[rows])
     heights = np.where(swapped[:, None], new.heights[rows][:, ::-1], new.heights[rows])
     mean, P = gaussian_product(mem.ends[cols], mem.cov[cols], ends, cov)
     top = np.maximum(mem.heights[cols], heights)
-    src = new.source[rows].tolist()
-    return [trusted_segment(mean[k], P[k], top[k], src[k]) for k in range(rows.shape[0])]
+    src = new.source[rows]
+    segs = [trusted_segment(mean[k], P[k], top[k], s) for k, s in enumerate(src.tolist())]
+    return segs, SegmentStack(mean, P, top, src)
+
+
+def take(stack: SegmentStack, index: np.ndarray) -> SegmentStack:
+    """The rows ``index`` of ``stack``."""
+    return SegmentStack(*(arr[index] for arr in stack))
+
+
+def concat(*stacks: SegmentStack) -> SegmentStack:
+    """The stacks one after another."""
+    return SegmentStack(*(np.concatenate(parts) for parts in zip(*stacks, strict=True)))
+
+
+def replaced(stack: SegmentStack, index: np.ndarray, rows: SegmentStack) -> SegmentStack:
+    """``stack`` with its rows ``index`` replaced by ``rows`` (a copy)."""
+    out = SegmentStack(*(arr.copy() for arr in stack))
+    for arr, new in zip(out, rows, strict=True):
+        arr[index] = new
+    return out
 
 
 def subset(pairs: Association, keep: np.ndarray) -> Association:

@@ -47,9 +47,12 @@ class Visibility(NamedTuple):
     reach: FloatArray
     near_m: float
 
-    def seen_free(self, points: FloatArray, margin_m: float) -> np.ndarray:
+    def seen_free(
+        self, points: FloatArray, margin_m: float, near_m: FloatArray | None = None
+    ) -> np.ndarray:
         """(k,) bool: each of ``points`` (k, 2), world metres, is seen free by this view (in the
-        wedge, beyond ``near_m``, at least ``margin_m`` short of its ray's hit)."""
+        wedge, beyond ``near_m`` (k,) or this view's ``near_m``, at least ``margin_m`` short of
+        its ray's hit)."""
         rel = np.asarray(points, dtype=np.float64).reshape(-1, 2) - self.origin
         dist = np.hypot(rel[:, 0], rel[:, 1])
         ang = wrap_angle(np.arctan2(rel[:, 1], rel[:, 0]) - self.heading)
@@ -58,7 +61,7 @@ class Visibility(NamedTuple):
         k = np.clip(np.rint((ang + self.half_fov) / step), 0, n - 1).astype(np.int64)
         out: np.ndarray = (
             (np.abs(ang) <= self.half_fov)
-            & (dist > self.near_m)
+            & (dist > (self.near_m if near_m is None else near_m))
             & (dist < self.reach[k] - margin_m)
         )
         return out
@@ -68,14 +71,14 @@ class Visibility(NamedTuple):
         arc), simplified to ``tolerance_m`` metres; world frame."""
         ang = self.heading + self.angles
         u = np.stack([np.cos(ang), np.sin(ang)], axis=1)
-        reach = np.maximum(self.reach, self.near_m)
-        far = self.origin + reach[:, None] * u
-        if self.near_m > 0.0:
-            ring = np.vstack([far, (self.origin + self.near_m * u)[::-1]])
-        else:
-            ring = np.vstack([self.origin[None, :], far])
-        poly = shapely.make_valid(shapely.Polygon(ring))
-        return shapely.simplify(poly, tolerance_m)
+        if self.near_m > 0.0:  # an annular sector: never touching itself (reach > near)
+            reach = np.maximum(self.reach, self.near_m + 1e-3)
+            ring = np.vstack(
+                [self.origin + reach[:, None] * u, (self.origin + self.near_m * u)[::-1]]
+            )
+        else:  # a star polygon around the viewpoint: simple
+            ring = np.vstack([self.origin[None, :], self.origin + self.reach[:, None] * u])
+        return shapely.simplify(shapely.polygons(ring), tolerance_m)
 
 
 def visibility(

@@ -57,14 +57,17 @@ class ModelOptions:
         eps: Classification tolerance in (0, 0.5): passable if ``p > 1 - eps``, impassable if
             ``p < eps``, undecided otherwise.
         max_situations: At most this many situations are returned, most probable first (>= 1).
-        min_isolated_length_m: Isolated segments shorter than this are dropped (metres, >= 0).
+        min_isolated_3d_length_m: Isolated segments whose 3D length (the floor length and the
+            height extent: ``hypot(length_m, |height_m[1] - height_m[0]|)``) is below this are
+            dropped as likely false matches (metres, >= 0). A vertical edge, zero long on the
+            floor, counts its height.
         outline_buffer_m: Half-width of the rectangle that stands for the polygon of an obstacle
             whose points are collinear (one segment, or a straight wall), metres (> 0).
     """
 
     eps: float = 0.05
     max_situations: int = 64
-    min_isolated_length_m: float = 0.1
+    min_isolated_3d_length_m: float = 0.1
     outline_buffer_m: float = 0.02
 
     def __post_init__(self) -> None:  # checked once here, stored as plain Python numbers
@@ -72,8 +75,10 @@ class ModelOptions:
         object.__setattr__(
             self, "max_situations", integer(self.max_situations, "max_situations", low=1)
         )
-        length = positive(self.min_isolated_length_m, "min_isolated_length_m", allow_zero=True)
-        object.__setattr__(self, "min_isolated_length_m", length)
+        length = positive(
+            self.min_isolated_3d_length_m, "min_isolated_3d_length_m", allow_zero=True
+        )
+        object.__setattr__(self, "min_isolated_3d_length_m", length)
         object.__setattr__(
             self, "outline_buffer_m", positive(self.outline_buffer_m, "outline_buffer_m")
         )
@@ -106,7 +111,7 @@ def build_model(
         )
     width = positive(robot_width_m, "robot_width_m")
     opts = with_overrides(options, ModelOptions, overrides)  # validated by ModelOptions
-    eps, min_len, buffer_m = opts.eps, opts.min_isolated_length_m, opts.outline_buffer_m
+    eps, min_len, buffer_m = opts.eps, opts.min_isolated_3d_length_m, opts.outline_buffer_m
 
     # Section 4.1: items, their relations, isolated short segments.
     items = items_of(observation)

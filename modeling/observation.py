@@ -14,6 +14,8 @@ from modeling.validation import FloatArray, covariance, finite_array, positive, 
 
 __all__ = ["AmbiguousSegment", "FloorObservation", "FloorSegment"]
 
+P_NONE_ATOL = 1e-9  # a p_none below this is rounding: the candidates sum to 1
+
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
 class FloorSegment:
@@ -47,6 +49,11 @@ class FloorSegment:
         return float(np.linalg.norm(self.endpoints[1] - self.endpoints[0]))
 
     @property
+    def length_3d_m(self) -> float:
+        """Length of the 3D segment, metres: the floor length and the height extent."""
+        return math.hypot(self.length_m, float(self.height_m[1] - self.height_m[0]))
+
+    @property
     def midpoint(self) -> FloatArray:
         """(2,) mean of the two endpoint means."""
         out: FloatArray = self.endpoints.mean(axis=0)
@@ -66,9 +73,15 @@ class FloorSegment:
 class AmbiguousSegment:
     """One image segment with several possible matches (section 3.3).
 
+    The probabilities may sum to less than 1: the rest, :attr:`p_none`, is the probability that
+    the segment is no obstacle here (its true match lies above the height band, or it is a false
+    match). Every consumer treats "none" as one more choice whose effect is empty. So one
+    candidate is allowed when ``p_none > 0`` (a possible obstacle), two or more otherwise.
+
     Attributes:
         candidates: The possible floor segments, one per kept match.
-        probabilities: Their probabilities (Eq. 1), same length, summing to 1.
+        probabilities: Their probabilities (Eq. 1 over all the segment's matches), same length,
+            each in [0, 1], summing to at most 1.
     """
 
     candidates: tuple[FloorSegment, ...]
@@ -76,17 +89,29 @@ class AmbiguousSegment:
 
     def __post_init__(self) -> None:
         cands = tuple(self.candidates)
-        if len(cands) < 2:
-            raise ValueError(f"candidates must hold at least 2 FloorSegments, got {len(cands)}")
         if not all(isinstance(c, FloorSegment) for c in cands):
             raise ValueError("candidates must all be FloorSegment instances")
-        probs = probabilities(self.probabilities, "probabilities")
+        if not cands:
+            raise ValueError("candidates must hold at least 1 FloorSegment, got 0")
+        probs = probabilities(self.probabilities, "probabilities", at_most_one=True)
         if probs.shape[0] != len(cands):
             raise ValueError(
                 f"probabilities has {probs.shape[0]} entries for {len(cands)} candidates"
             )
+        if len(cands) == 1 and not 1.0 - float(probs.sum()) > P_NONE_ATOL:
+            raise ValueError(
+                "candidates must hold at least 2 FloorSegments when p_none is 0 (one certain"
+                " candidate is a FloorSegment)"
+            )
         object.__setattr__(self, "candidates", cands)
         object.__setattr__(self, "probabilities", tuple(float(p) for p in probs))
+
+    @property
+    def p_none(self) -> float:
+        """Probability that none of the candidates is an obstacle: ``1 - sum(probabilities)``
+        (0 when they sum to 1 within 1e-9)."""
+        rest = 1.0 - math.fsum(self.probabilities)
+        return rest if rest > P_NONE_ATOL else 0.0
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)

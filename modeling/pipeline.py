@@ -162,7 +162,7 @@ def model_from_stereo(
         **kw: Options of the stereo stages (those of :func:`stereo_to_floor`, e.g. ``sigma_px``,
             ``rel_peak``, ``min_height_m``, ``close_faces``) and fields of
             :class:`~modeling.model.ModelOptions` (``eps``, ``max_situations``,
-            ``min_isolated_length_m``, ``outline_buffer_m``), each passed to its own stage.
+            ``min_isolated_3d_length_m``, ``outline_buffer_m``), each passed to its own stage.
 
     Returns:
         The :class:`~modeling.model.EnvironmentModel` (world frame, metres).

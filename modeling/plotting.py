@@ -44,7 +44,7 @@ def plot_model(
     narrowest relation dashed), the candidates of the ambiguous segments (purple: thin and dotted,
     the chosen one thick), 2-sigma endpoint ellipses, the viewpoint (red triangle), and optionally
     the ground-truth outlines (green); its title gives the situation's probability and choices
-    ``{ambiguous index: candidate index}``.
+    ``{ambiguous index: candidate index}`` ("none": no candidate is an obstacle).
 
     Args:
         model: The environment model.
@@ -128,7 +128,7 @@ def plot_model(
         a.plot([vp[0]], [vp[1]], marker="^", color="red", zorder=7)
         a.set_aspect("equal")
         a.autoscale_view()
-        picks = " ".join(f"{k}:{v}" for k, v in sit.choice.items())
+        picks = " ".join(f"{k}:{v if v >= 0 else 'none'}" for k, v in sit.choice.items())
         a.set_title(f"p = {sit.probability:.3g}" + (f"  [{picks}]" if picks else ""), fontsize=9)
     return fig
 

@@ -114,7 +114,9 @@ class Situation:
         obstacles: Its obstacles.
         critical_regions: Its critical regions (one per obstacle pair with undecided relations).
         choice: ``{ambiguous segment index: candidate index}`` chosen in this situation (for every
-            member of every remaining unit).
+            member of every remaining unit); ``-1`` (``modeling.ambiguity.NONE``) when the choice
+            is "none" (probability ``p_none``): the segment is no obstacle in this situation, and
+            no item of it is in the situation.
         passages: Narrowest clearly passable gap per nearby obstacle pair.
         robot_width_m: Robot width the model was built for, metres.
     """

@@ -2,7 +2,9 @@
 regions, passages and the k-best enumeration.
 
 A situation is one choice of candidate per remaining unit of ambiguous segments; its items are the
-base model's (kept segments and merged candidates) plus the chosen candidates.
+base model's (kept segments and merged candidates) plus the chosen candidates. A unit whose
+segments may be no obstacle (``AmbiguousSegment.p_none > 0``) has the choice "none" too, with
+probability ``p_none`` and no item; ``Situation.choice`` maps its members to ``-1`` then.
 
 * *Partition*: its obstacles are the connected components of impassable relations among its
   items, numbered in the order of their smallest item (:func:`_partition`).
@@ -12,7 +14,8 @@ base model's (kept segments and merged candidates) plus the chosen candidates.
   obstacle make no region, as in the paper.
 * *Passages*: passable relations shorter than 3 robot widths give, per obstacle pair, the
   narrowest :class:`~modeling.records.Passage` (used by the path graph).
-* *Eq. 2*: a situation's probability is the product of its choices' probabilities. Since the
+* *Eq. 2*: a situation's probability is the product of its choices' probabilities ("none"
+  included, so that all situations sum to 1 with the residual). Since the
   product factorises over units, the ``max_situations`` most probable situations are enumerated
   best-first (:func:`k_best`): exact probabilities, ``O(k log k)``, no enumeration of the full
   product.

@@ -22,8 +22,11 @@ The head is level, so the floor coordinates depend on ``(X, Z)`` only: the 2x2 f
 computed in closed form from the ``(u, d)`` block of ``S`` (equal to the ``(x, y)`` block of the
 world-frame ``R J S J^T R^T``, which ``triangulate_points`` gives in full).
 
-Ambiguity (section 3.3): a left segment with one surviving match gives a ``FloorSegment``; one with
-several gives an ``AmbiguousSegment`` whose probabilities are renormalised over the survivors.
+Ambiguity (section 3.3): a left segment whose matches all survive gives a ``FloorSegment`` (one
+match) or an ``AmbiguousSegment`` (several). A match dropped by the height band is a possible match
+that is no obstacle: its probability stays as the segment's "no obstacle here" mass
+(``AmbiguousSegment.p_none``), so the survivors keep their probabilities and form an
+``AmbiguousSegment`` even when only one survives; with none surviving, nothing is emitted.
 
 The per-row work (usable rows, band clip, floor points and covariances, grouping) is one compiled
 pass, :func:`modeling._compiled.tri.floor_rows`; :func:`floor_rows_reference` is the same step
@@ -40,7 +43,7 @@ import numpy as np
 
 from modeling._compiled.tri import FloorFrame, FloorRows, MatchRows, floor_rows
 from modeling.matching import StereoMatches
-from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
+from modeling.observation import P_NONE_ATOL, AmbiguousSegment, FloorObservation, FloorSegment
 from modeling.rig import HeadPose, StereoRig
 from modeling.validation import FloatArray, number, with_overrides
 
@@ -60,7 +63,8 @@ class TriangulationOptions:
         min_height_m: Lowest height above the floor that is kept, m (the floor itself is not an
             obstacle).
         max_height_m: Highest height kept, m (the robot's height); above ``min_height_m``.
-        min_probability: Candidates below this probability are ignored, in [0, 1).
+        min_probability: Candidates below this probability are ignored, in [0, 1); so is a
+            "no obstacle here" mass (``AmbiguousSegment.p_none``) below it.
 
     Raises:
         ValueError: a non-finite height, ``min_height_m >= max_height_m`` or ``min_probability``
@@ -142,7 +146,8 @@ def _segment(ends: FloatArray, cov: FloatArray, heights: FloatArray, source: int
 
 
 def _ambiguous(candidates: tuple[FloorSegment, ...], probs: list[float]) -> AmbiguousSegment:
-    """An ``AmbiguousSegment`` whose probabilities were checked in bulk (positive, sum to 1)."""
+    """An ``AmbiguousSegment`` whose probabilities were checked in bulk (positive, summing to 1,
+    or to at most ``1 - min_probability`` with one candidate or more)."""
     amb = object.__new__(AmbiguousSegment)
     object.__setattr__(amb, "candidates", candidates)
     object.__setattr__(amb, "probabilities", tuple(probs))
@@ -296,8 +301,9 @@ def triangulate_to_floor(
 
     Returns:
         The observation: unambiguous ``FloorSegment``s (``source`` = left segment index) and
-        ``AmbiguousSegment``s (candidates in decreasing probability), in increasing left segment
-        index; viewpoint ``(x, y, heading)`` of the head, field of view ``rig.hfov_rad`` and range
+        ``AmbiguousSegment``s (candidates in decreasing probability; the mass of matches dropped
+        by the height band is their ``p_none``), in increasing left segment index; viewpoint
+        ``(x, y, heading)`` of the head, field of view ``rig.hfov_rad`` and range
         ``rig.max_depth_m``. Endpoint covariances are the ``(x, y)`` block of ``J S J^T`` in the
         world frame (equal to ``triangulate_points`` rotated to the world).
 
@@ -335,19 +341,27 @@ def triangulate_to_floor(
         u_var=matches.u_left_var,
         d_var=matches.disparity_var,
     )
-    segments, ambiguous = _grouped(floor_rows(rows, frame))
+    segments, ambiguous = _grouped(floor_rows(rows, frame), opts.min_probability)
     return _observation(segments, ambiguous, rig, head_pose)
 
 
-def _grouped(rows: FloorRows) -> tuple[tuple[FloorSegment, ...], tuple[AmbiguousSegment, ...]]:
-    """The kept rows as segments (section 3.3): a left segment with one row gives a
-    ``FloorSegment``, one with several an ``AmbiguousSegment`` whose probabilities are
-    renormalised over them. Each segment holds read-only views of one row."""
+def _grouped(
+    rows: FloorRows, min_probability: float
+) -> tuple[tuple[FloorSegment, ...], tuple[AmbiguousSegment, ...]]:
+    """The kept rows as segments (section 3.3). The probabilities of a left segment's matches sum
+    to 1; the mass of those not kept (above or below the height band, behind the camera, below
+    ``min_probability``) is the probability that the segment is no obstacle here
+    (``AmbiguousSegment.p_none``), never spread over the kept ones. A left segment whose kept rows
+    hold all its mass (up to ``min_probability``, the floor below which a possibility is ignored,
+    the "none" one too) gives a ``FloorSegment`` if it has one row, an ``AmbiguousSegment`` with
+    probabilities renormalised to 1 if several; otherwise an ``AmbiguousSegment`` of its kept rows
+    with their own probabilities (one row allowed). A left segment with no row kept gives nothing.
+    Each segment holds read-only views of one row."""
     for arr in (rows.xy, rows.cov, rows.heights):
         arr.setflags(write=False)
     xy_l, cov_l, h_l = list(rows.xy), list(rows.cov), list(rows.heights)
     gl_l = rows.left_index.tolist()
-    gp = rows.probability
+    gp_l = rows.probability.tolist()
     segments: list[FloorSegment] = []
     ambiguous: list[AmbiguousSegment] = []
     n = len(gl_l)
@@ -357,11 +371,13 @@ def _grouped(rows: FloorRows) -> tuple[tuple[FloorSegment, ...], tuple[Ambiguous
         z = a + 1
         while z < n and gl_l[z] == src:
             z += 1
-        if z - a == 1:
+        p = gp_l[a:z]
+        total = math.fsum(p)
+        certain = 1.0 - total < max(min_probability, P_NONE_ATOL)
+        if certain and z - a == 1:
             segments.append(_segment(xy_l[a], cov_l[a], h_l[a], src))
         else:
-            p = gp[a:z]
             cands = tuple(_segment(xy_l[r], cov_l[r], h_l[r], src) for r in range(a, z))
-            ambiguous.append(_ambiguous(cands, (p / p.sum()).tolist()))
+            ambiguous.append(_ambiguous(cands, [x / total for x in p] if certain else p))
         a = z
     return tuple(segments), tuple(ambiguous)

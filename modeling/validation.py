@@ -57,15 +57,22 @@ def covariance(
     return 0.5 * (arr + sym)
 
 
-def probabilities(value: ArrayLike, name: str, *, atol: float = 1e-6) -> FloatArray:
-    """A 1-D array of probabilities in [0, 1] that sums to 1."""
+def probabilities(
+    value: ArrayLike, name: str, *, atol: float = 1e-6, at_most_one: bool = False
+) -> FloatArray:
+    """A 1-D array of probabilities in [0, 1] that sums to 1 (``at_most_one``: to at most 1,
+    the rest being the mass of an outcome not listed)."""
     arr = finite_array(value, name, (None,))
     if arr.size == 0:
         raise ValueError(f"{name} must not be empty")
     if np.any(arr < 0) or np.any(arr > 1):
         raise ValueError(f"{name} must lie in [0, 1], got {arr.tolist()}")
-    if abs(arr.sum() - 1.0) > atol:
-        raise ValueError(f"{name} must sum to 1, got {arr.sum():.6g}")
+    total = float(arr.sum())
+    if at_most_one:
+        if total > 1.0 + atol:
+            raise ValueError(f"{name} must sum to at most 1, got {total:.6g}")
+    elif abs(total - 1.0) > atol:
+        raise ValueError(f"{name} must sum to 1, got {total:.6g}")
     return arr
 
 

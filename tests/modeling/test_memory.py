@@ -4,10 +4,12 @@ ambiguity re-weighting, contacts, bounds."""
 from __future__ import annotations
 
 import math
+import pickle
 
 import numpy as np
 import pytest
 import shapely
+import shapely.affinity
 from numpy.typing import ArrayLike
 
 from modeling import (
@@ -23,6 +25,7 @@ from modeling import (
 
 PD, PF = 0.8, 0.05  # the default detection probability and false-match rate
 HIT, MISS = PD / PF, (1 - PD) / (1 - PF)  # the likelihood ratios of a detection and of a miss
+NONE = 0.05  # the default none prior: a new ambiguity's candidates are scaled to 1 - NONE
 
 
 def seg(a: ArrayLike, b: ArrayLike, cov: np.ndarray | None = None) -> FloorSegment:
@@ -73,7 +76,8 @@ def test_an_ambiguity_seen_from_a_separating_viewpoint_resolves_to_the_true_cand
     vis_side = fuse(memory, view((again,), at=side))
     assert vis_side.ambiguous == ()
     assert len(vis_side.segments) == 1
-    p_true = 0.5 * HIT / (0.5 * HIT + 0.5 * MISS)
+    q = 0.5 * (1 - NONE)
+    p_true = q * HIT / (q * HIT + q * MISS + NONE)
     assert vis_side.existence == pytest.approx((p_true,), abs=1e-12)
     got = vis_side.segments[0]
     i1, i2 = np.linalg.inv(true.cov[0]), np.linalg.inv(again.cov[0])
@@ -99,11 +103,11 @@ def test_a_candidate_matched_by_a_new_ambiguous_one_gains_by_its_probability() -
     )
     later = fuse(memory, view(ambiguous=(amb,), at=(4.0, -3.0, math.pi / 2 + 0.45)))
     assert len(later.ambiguous) == 1 and later.segments == ()
-    w_true, w_false = 0.5 * (1 + 0.7 * (HIT - 1)), 0.5
-    got = later.ambiguous[0].probabilities
-    assert got == pytest.approx(
-        (w_true / (w_true + w_false), w_false / (w_true + w_false)), abs=1e-12
-    )
+    w_true, w_false = 0.5 * (1 - NONE) * (1 + 0.7 * (HIT - 1)), 0.5 * (1 - NONE)
+    total = w_true + w_false + NONE
+    got = later.ambiguous[0]
+    assert got.probabilities == pytest.approx((w_true / total, w_false / total), abs=1e-12)
+    assert got.p_none == pytest.approx(NONE / total, abs=1e-12)
     assert later.ambiguous_seen == (2,)
 
 
@@ -136,6 +140,28 @@ def test_the_near_blind_zone_is_not_seen_free() -> None:
     memory = fuse(ModelMemory.empty(), view((near,)))
     assert fuse(memory, view(), near_range_m=1.5).existence == (0.5,)
     assert fuse(memory, view()).existence == pytest.approx((posterior(0.5, MISS),))
+
+
+def test_a_low_segment_below_the_image_is_not_seen_free_a_tall_one_is() -> None:
+    low = FloorSegment(
+        endpoints=np.array([[1.0, -0.1], [1.0, 0.1]]),
+        cov=np.tile(np.eye(2) * 1e-4, (2, 1, 1)),
+        height_m=np.array([0.0, 0.2]),
+    )
+    tall = FloorSegment(
+        endpoints=np.array([[1.0, 0.3], [1.0, 0.45]]),
+        cov=np.tile(np.eye(2) * 1e-4, (2, 1, 1)),
+        height_m=np.array([0.0, 0.75]),
+    )
+    level_head = {"head_height_m": 0.8, "half_vfov_rad": math.atan(120 / 256)}
+    memory = fuse(ModelMemory.empty(), view((low, tall)), **level_head)
+    later = fuse(memory, view(), **level_head)
+    # the low box's top (0.2 m) is in the image from 1.28 m on, the tall one's from 0.11 m
+    assert later.existence == pytest.approx((0.5, posterior(0.5, MISS)), abs=1e-12)
+    # the floor is in the image from 0.8 / tan(25 deg) = 1.71 m on
+    unknown = later.unknown(shapely.box(-1, -3, 9, 3))
+    assert unknown.contains(shapely.Point(1.5, 0.0))
+    assert not unknown.contains(shapely.Point(1.9, 0.0))
 
 
 def test_memory_size_stays_bounded_over_500_steps() -> None:
@@ -218,6 +244,8 @@ def test_fuse_is_deterministic_and_does_not_mutate_its_inputs() -> None:
         ("free_margin_m", -0.1),
         ("seen_tolerance_m", 0.0),
         ("contact_length_m", math.nan),
+        ("half_vfov_rad", 2.0),
+        ("head_height_m", -0.8),
     ],
 )
 def test_bad_options_raise_naming_the_field(field: str, value: float) -> None:
@@ -312,3 +340,127 @@ def test_a_critical_regions_width_std_narrows_as_views_accumulate() -> None:
         stds.append(region.width_std_m)
     assert np.all(np.diff(stds) < 0)
     assert stds[-1] < 0.5 * stds[0]
+
+
+def test_a_new_ambiguity_coinciding_with_a_remembered_segment_is_reweighted_or_absorbed() -> None:
+    wall = seg((4.0, -0.5), (4.0, 0.5))
+    memory = fuse(fuse(ModelMemory.empty(), view((wall,))), view((wall,)))
+    e = posterior(0.5, HIT)
+    assert memory.existence == pytest.approx((e,), abs=1e-12)
+    ghost = seg((2.5, -0.3), (2.5, 0.3))  # the wrong disparity, nearer
+    for q, absorbed in ((0.5, False), (0.6, True)):
+        amb = AmbiguousSegment(candidates=(wall, ghost), probabilities=(q, 1 - q))
+        later = fuse(memory, view(ambiguous=(amb,), at=(0.0, 0.0, 0.0)))
+        w_wall, w_ghost = (1 - NONE) * q * (1 + e * (HIT - 1)), (1 - NONE) * (1 - q)
+        p_wall = w_wall / (w_wall + w_ghost + NONE)
+        assert (p_wall >= 0.95) == absorbed
+        assert later.existence == pytest.approx((posterior(e, 1 + q * (HIT - 1)),), abs=1e-12)
+        assert len(later.segments) == 1
+        if absorbed:
+            assert later.ambiguous == ()
+            P = np.linalg.inv(3 * np.linalg.inv(wall.cov[0]))  # the wall's Gaussian, three times
+            np.testing.assert_allclose(later.segments[0].cov[0], P, atol=1e-12)
+        else:
+            (open_,) = later.ambiguous
+            total = w_wall + w_ghost + NONE
+            assert open_.probabilities == pytest.approx(
+                (w_wall / total, w_ghost / total), abs=1e-12
+            )
+            assert open_.p_none == pytest.approx(NONE / total, abs=1e-12)
+
+
+def test_a_resolved_candidate_coinciding_with_a_remembered_segment_fuses_into_it() -> None:
+    true, false = seg((4.0, 0.5), (4.0, 1.0)), seg((6.0, 0.75), (6.0, 1.4))
+    amb = AmbiguousSegment(candidates=(true, false), probabilities=(0.5, 0.5))
+    # the ambiguity first, then its true edge unambiguously from a view that misses the false
+    # candidate's place; then from the side
+    memory = fuse(ModelMemory.empty(), view(ambiguous=(amb,)))
+    side = fuse(memory, view((true,), at=(4.0, -3.0, math.pi / 2)))
+    assert side.ambiguous == () and len(side.segments) == 1
+    again = fuse(side, view((true,), at=(4.0, -3.0, math.pi / 2)))
+    assert len(again.segments) == 1
+
+
+def test_p_none_is_respected_and_resolves_when_every_candidate_is_seen_free() -> None:
+    a, b = seg((3.0, -0.4), (3.0, -0.1)), seg((4.0, 0.2), (4.0, 0.5))
+    amb = AmbiguousSegment(candidates=(a, b), probabilities=(0.4, 0.3))  # p_none 0.3
+    memory = fuse(ModelMemory.empty(), view(ambiguous=(amb,)))
+    assert memory.ambiguous[0].probabilities == (0.4, 0.3)  # above the none prior: as it is
+    p, none = np.array([0.4, 0.3]), 0.3
+    for _ in range(3):  # both places seen free again and again, nothing there
+        memory = fuse(memory, view())
+        p, none = p * MISS, none
+        p, none = p / (p.sum() + none), none / (p.sum() + none)
+        if none >= 0.95:
+            break
+        assert memory.ambiguous[0].probabilities == pytest.approx(tuple(p), abs=1e-12)
+        assert memory.ambiguous[0].p_none == pytest.approx(none, abs=1e-12)
+    assert none >= 0.95 and memory.ambiguous == ()
+    assert build_memory_model(memory, 0.5).most_probable.obstacles == ()
+
+
+def test_a_single_candidate_with_p_none_seen_again_becomes_a_segment() -> None:
+    a = seg((3.0, -0.4), (3.0, -0.1))
+    amb = AmbiguousSegment(candidates=(a,), probabilities=(0.6,))
+    memory = fuse(ModelMemory.empty(), view(ambiguous=(amb,)))
+    assert len(memory.ambiguous) == 1 and memory.segments == ()
+    later = fuse(memory, view((a,)))
+    assert later.ambiguous == ()
+    assert later.existence == pytest.approx((0.6 * HIT / (0.6 * HIT + 0.4),), abs=1e-12)
+
+
+def test_a_candidate_below_the_pruning_threshold_goes_one_stays_with_p_none() -> None:
+    a, b = seg((3.0, -0.4), (3.0, -0.1)), seg((3.5, 0.8), (3.5, 1.0))
+    amb = AmbiguousSegment(candidates=(a, b), probabilities=(0.5, 0.3))  # p_none 0.2
+    memory = fuse(ModelMemory.empty(), view(ambiguous=(amb,)))
+    # a seen free (in view), b hidden behind a wall that the new view sees
+    wall = seg((2.5, 0.5), (2.5, 1.5))
+    later = fuse(memory, view((wall,)), min_candidate_probability=0.4)
+    w_a, w_b, none = 0.5 * MISS, 0.3, 0.2
+    (open_,) = later.ambiguous
+    assert len(open_.candidates) == 1
+    np.testing.assert_array_equal(open_.candidates[0].endpoints, b.endpoints)
+    assert open_.probabilities == pytest.approx((w_b / (w_b + none),), abs=1e-12)
+    assert w_a / (w_a + w_b + none) < 0.4
+
+
+def test_fuse_commutes_with_a_rigid_motion() -> None:
+    rng = np.random.default_rng(7)
+    pts = rng.uniform([2, -2], [6, 2], size=(12, 2))
+    segs = tuple(seg(p, p + np.array([0.3, 0.1])) for p in pts)
+    amb = AmbiguousSegment(
+        candidates=(seg((3.0, 0.2), (3.0, 0.6)), seg((5.0, 0.4), (5.0, 1.1))),
+        probabilities=(0.6, 0.3),
+    )
+    views = [
+        view(segs, (amb,)),
+        view(segs[:8], at=(0.5, 0.2, 0.15)),
+        view(segs[4:], (amb,), at=(1.0, -0.3, -0.2)),
+    ]
+    angle, shift = 0.7, np.array([3.0, -1.5])
+    plain, moved = ModelMemory.empty(), ModelMemory.empty()
+    for obs in views:
+        plain, moved = fuse(plain, obs), fuse(moved, obs.transformed(angle, shift))
+    c, s = math.cos(angle), math.sin(angle)
+    R = np.array([[c, -s], [s, c]])
+    assert moved.existence == pytest.approx(plain.existence, abs=1e-9)
+    assert len(moved.ambiguous) == len(plain.ambiguous)
+    for a, b in zip(plain.segments, moved.segments, strict=True):
+        np.testing.assert_allclose(b.endpoints, a.endpoints @ R.T + shift, atol=1e-9)
+        np.testing.assert_allclose(b.cov, R @ a.cov @ R.T, atol=1e-12)
+    for a, b in zip(plain.ambiguous, moved.ambiguous, strict=True):
+        assert b.probabilities == pytest.approx(a.probabilities, abs=1e-9)
+    area = shapely.affinity.translate(
+        shapely.affinity.rotate(plain.seen, angle, (0, 0), True), *shift
+    )
+    assert shapely.symmetric_difference(area, moved.seen).area < 1e-3 * plain.seen.area
+
+
+def test_a_memory_survives_a_pickle_round_trip() -> None:
+    memory = fuse(ModelMemory.empty(), view((seg((3.0, -0.5), (3.0, 0.5)),)))
+    memory = add_contact(memory, (1.0, 0.0), (1.0, 0.0), height_m=0.3)
+    back = pickle.loads(pickle.dumps(memory))
+    assert back.existence == memory.existence and back.views == memory.views
+    np.testing.assert_array_equal(back.segments[0].cov, memory.segments[0].cov)
+    assert shapely.equals_exact(back.seen, memory.seen, 0.0)
+    assert fuse(back, view()).existence == fuse(memory, view()).existence

@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
-import numpy as np
+import itertools
+import math
 
-from modeling.ambiguity import Effect, _signature
+import numpy as np
+import pytest
+
+from modeling.ambiguity import NONE, Effect, _signature
 from modeling.gaps import Relation
 from modeling.model import build_model
 from tests.modeling.test_model_figures import W, amb, box, observe, seg
@@ -38,3 +42,59 @@ def test_signature_tags_merges_new_undecided_spaces_and_near_spaces() -> None:
     # an inactive neighbour has no effect
     active[3] = False
     assert _signature((5,), {5: {3: und}}, labels, set(), active) == frozenset()
+
+
+def test_a_candidate_with_no_obstacle_mass_gives_a_none_situation() -> None:
+    # Issue 16c: one candidate of probability 0.4 in the 1.0 m gap between two boxes, the rest
+    # (0.6) no obstacle here (its other match lay above the height band). The gap is closed with
+    # probability 0.4, open with 0.6, never certainly closed.
+    A, C = box(0.0, 0.0, 1.0, 1.0), box(2.0, 0.0, 3.0, 1.0)
+    door = amb([seg((1.0, 0.5), (2.0, 0.5))], [0.4])
+    assert door.p_none == pytest.approx(0.6)
+    m = build_model(observe(A + C, [door]), W)
+    assert m.units == ((0,),) and m.eliminated_ambiguous == ()
+    assert [s.probability for s in m.situations] == pytest.approx([0.6, 0.4])
+    none, closed = m.situations
+    assert none.choice == {0: NONE} and closed.choice == {0: 0}
+    assert len(none.obstacles) == 2 and all(o.candidates == () for o in none.obstacles)
+    assert len(closed.obstacles) == 1 and closed.obstacles[0].candidates == ((0, 0),)
+    assert math.fsum(m.probabilities) + m.residual_probability == pytest.approx(1.0, abs=1e-12)
+
+
+def test_situations_with_none_choices_follow_eq2_and_sum_to_one_with_the_residual() -> None:
+    # three gaps, each with an ambiguous segment: (bridge, far copy) plus "none" for two of them
+    A, B, C, D = box(0, 0, 1, 1), box(2.5, 0, 3.5, 1), box(5, 0, 6, 1), box(7.5, 0, 8.5, 1)
+    probs = [(0.5, 0.3), (0.6, 0.4), (0.7,)]
+    ambs = [
+        amb([seg((1.0, 0.5), (2.5, 0.5)), seg((1.0, 6.0), (1.8, 6.0))], list(probs[0])),
+        amb([seg((3.5, 0.5), (5.0, 0.5)), seg((3.5, 9.0), (4.3, 9.0))], list(probs[1])),
+        amb([seg((6.0, 0.5), (7.5, 0.5))], list(probs[2])),
+    ]
+    with_none = [(*p, 1.0 - sum(p)) if sum(p) < 1.0 else p for p in probs]
+    expected = sorted((math.prod(c) for c in itertools.product(*with_none)), reverse=True)
+    m = build_model(observe(A + B + C + D, ambs), W, max_situations=64)
+    assert len(m.situations) == 3 * 2 * 2 == len(expected)
+    assert [s.probability for s in m.situations] == pytest.approx(expected, abs=1e-12)
+    assert math.fsum(m.probabilities) + m.residual_probability == pytest.approx(1.0, abs=1e-12)
+    for s in m.situations:
+        p = math.prod(with_none[a][c] for a, c in s.choice.items())  # NONE = -1: the last entry
+        assert s.probability == pytest.approx(p, abs=1e-15)
+        chosen = {(a, c) for o in s.obstacles for a, c in o.candidates}
+        assert chosen == {(a, c) for a, c in s.choice.items() if c != NONE}
+    m3 = build_model(observe(A + B + C + D, ambs), W, max_situations=3)
+    assert [s.probability for s in m3.situations] == pytest.approx(expected[:3])
+    assert m3.residual_probability == pytest.approx(math.fsum(expected[3:]))
+
+
+def test_segments_moving_together_share_their_none_choice() -> None:
+    A, B = box(0, 0, 1, 1), box(2.0, 0, 3, 1)  # 1.0 m gap
+    a1 = amb([seg((1.0, 0.5), (1.5, 0.5)), seg((1.0, 3.5), (1.5, 3.5))], [0.5, 0.3])
+    a2 = amb([seg((1.55, 0.5), (2.0, 0.5)), seg((1.55, 3.5), (2.0, 3.5))], [0.5, 0.3])
+    m = build_model(observe(A + B, [a1, a2]), W)
+    assert m.units == ((0, 1),)
+    assert [s.probability for s in m.situations] == pytest.approx([0.5, 0.3, 0.2])
+    assert [s.choice for s in m.situations] == [{0: 0, 1: 0}, {0: 1, 1: 1}, {0: NONE, 1: NONE}]
+    # one with a none mass and one without do not move together: their choices differ
+    a3 = amb([seg((1.55, 0.5), (2.0, 0.5)), seg((1.55, 3.5), (2.0, 3.5))], [0.7, 0.3])
+    units = build_model(observe(A + B, [a1, a3]), W).units
+    assert units[0] == (0,) and all(len(u) == 1 for u in units)

@@ -10,6 +10,7 @@ import pytest
 import shapely
 
 from modeling.gaps import Relation, gap_passable_probability
+from modeling.items import isolated_short_segments, item_relations, items_of
 from modeling.model import build_model
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
 from modeling.topology import path_graph, routes
@@ -188,6 +189,45 @@ def test_isolated_short_segments_are_eliminated() -> None:
     assert m.eliminated_segments == (4,)
     assert m.kept_segments == (0, 1, 2, 3)
     assert len(m.situations[0].obstacles) == 1
+
+
+def _vertical_edge(x: float, y: float, low: float, high: float) -> FloorSegment:
+    """A vertical edge as triangulation makes it: both ends at one floor point, two heights."""
+    cov = np.array([[0.02**2, 0.0], [0.0, 0.05**2]])  # elongated in depth
+    return FloorSegment(
+        endpoints=np.array([[x, y], [x, y]]),
+        cov=np.stack([cov, cov]),
+        height_m=np.array([high, low]),
+    )
+
+
+def test_isolated_vertical_edges_are_judged_by_their_3d_length() -> None:
+    # Issue 16a: four table legs 0.75 m tall, 1.0 and 1.2 m apart: every leg is isolated (the
+    # gaps pass the 0.5 m robot) and zero long on the floor, but 0.7 m long in 3D: all are kept.
+    legs = [_vertical_edge(x, y, 0.05, 0.75) for x in (-0.5, 0.5) for y in (1.0, 2.2)]
+    assert legs[0].length_m == 0.0 and legs[0].length_3d_m == pytest.approx(0.7)
+    m = build_model(observe(legs), W)
+    assert m.kept_segments == (0, 1, 2, 3) and m.eliminated_segments == ()
+    (s,) = m.situations
+    assert sorted(o.segments for o in s.obstacles) == [(0,), (1,), (2,), (3,)]
+    # a segment short in 3D (3 cm on the floor, 5 cm of height) is still dropped as isolated
+    short = FloorSegment(
+        endpoints=np.array([[3.0, 3.0], [3.03, 3.0]]),
+        cov=np.stack([np.eye(2) * 1e-4] * 2),
+        height_m=np.array([0.35, 0.30]),
+    )
+    assert short.length_3d_m == pytest.approx(math.hypot(0.03, 0.05))
+    m2 = build_model(observe([*legs, short]), W)
+    assert m2.eliminated_segments == (4,) and m2.kept_segments == (0, 1, 2, 3)
+    # an ambiguous segment whose every candidate is a short isolated point is dropped as
+    # isolated; one whose candidates are legs is not
+    dots = [_vertical_edge(6.0, 6.0, 0.3, 0.33), _vertical_edge(6.0, 8.0, 0.3, 0.33)]
+    tall = [_vertical_edge(-6.0, 6.0, 0.05, 0.7), _vertical_edge(-6.0, 8.0, 0.05, 0.7)]
+    items = items_of(observe(legs, [amb(dots, [0.6, 0.4]), amb(tall, [0.6, 0.4])]))
+    rel = item_relations(items, W, 0.05)
+    isolation = isolated_short_segments(items, rel, 0.1)
+    assert isolation.eliminated_ambiguous == [0] and isolation.live_ambiguous == [1]
+    assert isolated_short_segments(items, rel, 0.7).eliminated_ambiguous == [0, 1]
 
 
 def test_occlusion_is_behind_the_obstacle() -> None:

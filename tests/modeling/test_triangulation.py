@@ -132,7 +132,7 @@ def test_a_point_match_crosses_no_band_edge_and_nothing_raises() -> None:
     np.testing.assert_array_equal(obs.segments[0].endpoints[0], obs.segments[0].endpoints[1])
 
 
-def test_ambiguous_candidates_and_renormalisation() -> None:
+def test_ambiguous_candidates_in_the_band_keep_their_probabilities() -> None:
     u = 200.0
     v0 = RIG.focal_px * (0.8 - 0.9) / 2.0 + CY
     v1 = RIG.focal_px * (0.8 - 0.1) / 2.0 + CY
@@ -141,18 +141,42 @@ def test_ambiguous_candidates_and_renormalisation() -> None:
     assert obs.segments == () and len(obs.ambiguous) == 1
     amb = obs.ambiguous[0]
     assert len(amb.candidates) == 3 and amb.probabilities == pytest.approx((0.5, 0.3, 0.2))
+    assert amb.p_none == 0.0
     assert all(c.source == 3 for c in amb.candidates)
     # nearer candidates (larger disparity) lie closer to the viewpoint
     dist = [np.linalg.norm(c.midpoint - obs.viewpoint[:2]) for c in amb.candidates]
     assert dist[0] > dist[1] > dist[2]
-    # one candidate out of the band: the other two are renormalised (0.5, 0.3) -> (0.625, 0.375)
-    some_out = [*rows[:2], (3, 0.2, u, 5.0, 15.0, 15.6)]  # the last one is above 1 m
+
+
+def test_candidates_outside_the_height_band_keep_their_mass_as_no_obstacle() -> None:
+    # Issue 16c: a candidate above the band is a possible match that is no obstacle; its mass
+    # stays as p_none, it is not spread over the survivors (a 0.4 candidate never becomes certain).
+    u = 200.0
+    v0 = RIG.focal_px * (0.8 - 0.9) / 2.0 + CY
+    v1 = RIG.focal_px * (0.8 - 0.1) / 2.0 + CY
+    # one of three above 1 m: the others keep (0.5, 0.3), p_none = 0.2
+    some_out = [(3, 0.5, u, v0, v1, 15.6), (3, 0.3, u, v0, v1, 30.0), (3, 0.2, u, 5.0, 15.0, 15.6)]
     obs3 = triangulate_to_floor(_matches(some_out), RIG, POSE)
-    assert obs3.ambiguous[0].probabilities == pytest.approx((0.625, 0.375))
-    # two of three out of the band -> the survivor is an unambiguous FloorSegment
-    two_out = [(5, 0.6, u, v0, v1, 15.6), (5, 0.4, u, 10.0, 20.0, 15.6)]  # second above 1 m
+    assert obs3.ambiguous[0].probabilities == pytest.approx((0.5, 0.3))
+    assert obs3.ambiguous[0].p_none == pytest.approx(0.2)
+    # two candidates, the 0.6 one above 1 m: the 0.4 survivor stays a 0.4 possibility
+    two_out = [(5, 0.6, u, 10.0, 20.0, 15.6), (5, 0.4, u, v0, v1, 15.6)]
     obs2 = triangulate_to_floor(_matches(two_out), RIG, POSE)
-    assert len(obs2.segments) == 1 and obs2.ambiguous == () and obs2.segments[0].source == 5
+    assert obs2.segments == () and len(obs2.ambiguous) == 1
+    (amb,) = obs2.ambiguous
+    assert len(amb.candidates) == 1 and amb.candidates[0].source == 5
+    assert amb.probabilities == pytest.approx((0.4,)) and amb.p_none == pytest.approx(0.6)
+    # every candidate out of the band: nothing is emitted
+    all_out = [(6, 0.6, u, 10.0, 20.0, 15.6), (6, 0.4, u, 10.0, 20.0, 30.0)]
+    obs0 = triangulate_to_floor(_matches(all_out), RIG, POSE)
+    assert obs0.segments == () and obs0.ambiguous == ()
+    # a none mass below min_probability is ignored like a candidate below it: one certain segment
+    tiny = [(7, 1.0 - 1e-8, u, v0, v1, 15.6), (7, 1e-8, u, 10.0, 20.0, 15.6)]
+    obs1 = triangulate_to_floor(_matches(tiny), RIG, POSE)  # min_probability 1e-6
+    assert [s.source for s in obs1.segments] == [7] and obs1.ambiguous == ()
+    # ... but not below a smaller floor
+    obs1b = triangulate_to_floor(_matches(tiny), RIG, POSE, min_probability=1e-9)
+    assert obs1b.segments == () and obs1b.ambiguous[0].p_none == pytest.approx(1e-8)
 
 
 def test_empty_matches_give_empty_observation() -> None:

@@ -56,9 +56,26 @@ def test_non_positive_definite_covariance() -> None:
         gap_passable_probability([0, 0], C, [1, 0], -C, 0.5)
 
 
-def test_probabilities_not_summing_to_one() -> None:
-    with pytest.raises(ValueError, match="probabilities must sum to 1"):
-        AmbiguousSegment(candidates=(good_seg(), good_seg()), probabilities=(0.5, 0.4))
+def test_probabilities_summing_above_one_or_a_certain_single_candidate() -> None:
+    with pytest.raises(ValueError, match="probabilities must sum to at most 1"):
+        AmbiguousSegment(candidates=(good_seg(), good_seg()), probabilities=(0.7, 0.4))
+    with pytest.raises(ValueError, match="probabilities must lie in"):
+        AmbiguousSegment(candidates=(good_seg(), good_seg()), probabilities=(-0.1, 0.4))
+    with pytest.raises(ValueError, match="probabilities has 1 entries for 2 candidates"):
+        AmbiguousSegment(candidates=(good_seg(), good_seg()), probabilities=(0.4,))
+    with pytest.raises(ValueError, match="candidates must hold at least 2"):
+        AmbiguousSegment(candidates=(good_seg(),), probabilities=(1.0,))
+    with pytest.raises(ValueError, match="candidates must hold at least 1"):
+        AmbiguousSegment(candidates=(), probabilities=())
+
+
+def test_probabilities_below_one_leave_the_rest_as_no_obstacle() -> None:
+    two = AmbiguousSegment(candidates=(good_seg(), good_seg()), probabilities=(0.5, 0.4))
+    assert two.p_none == pytest.approx(0.1)
+    one = AmbiguousSegment(candidates=(good_seg(),), probabilities=(0.4,))
+    assert one.p_none == pytest.approx(0.6)
+    full = AmbiguousSegment(candidates=(good_seg(), good_seg()), probabilities=(0.6, 0.4))
+    assert full.p_none == 0.0
 
 
 def test_negative_width() -> None:
@@ -76,8 +93,8 @@ def test_bad_model_arguments() -> None:
         build_model(obs, 0.5, eps=0.6)
     with pytest.raises(ValueError, match="max_situations"):
         build_model(obs, 0.5, max_situations=0)
-    with pytest.raises(ValueError, match="min_isolated_length_m"):
-        build_model(obs, 0.5, min_isolated_length_m=-1.0)
+    with pytest.raises(ValueError, match="min_isolated_3d_length_m"):
+        build_model(obs, 0.5, min_isolated_3d_length_m=-1.0)
     with pytest.raises(ValueError, match="observation"):
         build_model([good_seg()], 0.5)  # type: ignore[arg-type]
 
