@@ -66,13 +66,17 @@ STAGES = (
 """Names of the stages timed in ``env.last_timings_ms``."""
 
 
-def blind_range_m(config: EnvConfig) -> float:
-    """How far ahead of the head the floor comes into the image, metres: a level head at
-    ``head_height_m`` sees the floor from where the ray through the image's lower edge meets it
-    (``head_height_m * focal_px / (height_px / 2)``: 1.73 m with the defaults). The floor nearer
-    is never seen by that view, so the memory does not count it seen (``near_range_m``)."""
+def memory_options(config: EnvConfig) -> MemoryOptions:
+    """How the env fuses views (:class:`~modeling.memory.MemoryOptions`): the defaults, with the
+    level head's vertical limit, so that the memory does not count as seen what lies below the
+    image's lower edge (a point of height ``h`` nearer than ``(head_height_m - h) /
+    tan(half_vfov_rad)``: the floor within 1.73 m with the defaults), and judges a segment in view
+    or not at its own height."""
     camera = config.camera
-    return config.world.head_height_m * camera.focal_px / (camera.height_px / 2.0)
+    return MemoryOptions(
+        head_height_m=config.world.head_height_m,
+        half_vfov_rad=math.atan((camera.height_px / 2.0) / camera.focal_px),
+    )
 
 
 def _pan_fraction(pan_rad: float, limit_rad: float) -> float:
@@ -263,7 +267,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         """The episode's fused memory of every view so far (world frame)."""
         self.memory_model: EnvironmentModel | None = None
         """The model of :attr:`memory` (``info["memory_model"]``)."""
-        self.memory_options = MemoryOptions(near_range_m=blind_range_m(self.config))
+        self.memory_options = memory_options(self.config)
         """How views and contacts are fused (:class:`~modeling.memory.MemoryOptions`)."""
         self.last_timings_ms: dict[str, float] = {}
         self._clean_pair: tuple[UInt8Image, UInt8Image] | None = None
