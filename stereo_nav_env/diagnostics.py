@@ -18,9 +18,12 @@ are always present.
   along an outline is not measured (the true point an endpoint stands for is not known there), and
   a wrong match that lands on another outline counts as right: both make these figures optimistic.
 * ``p_true_candidate``, ``ambiguous_segments``: for each ambiguous segment, the candidate that is
-  true is the one whose endpoints lie best on the true outlines (least mean ``z^2``);
-  ``p_true_candidate`` is the mean probability the model gave it (1 would be perfect
-  disambiguation; ``1 / m`` for m equal candidates is chance).
+  true is the one whose endpoints lie best on the true outlines (least mean ``z^2``), provided
+  that mean is at most chi^2_2(0.99) = 9.21; when no candidate lies that near an outline, every
+  candidate is a false match and the true choice is "no obstacle here" (its probability
+  ``p_none``, 0 when the candidates sum to 1). ``p_true_candidate`` is the mean probability the
+  model gave the true choice (1 would be perfect disambiguation; ``1 / m`` for m equal
+  candidates is chance).
 * ``passability_brier``, ``gaps_in_view``, ``gaps_scored``: the true doubtful gaps
   (:meth:`Scene.doubtful_gaps`, widths within 30 % of the robot width) whose two closest points
   lie in the field of view and range are ``gaps_in_view``. For each, the model's probability that
@@ -224,7 +227,9 @@ def _outline_figures(model: EnvironmentModel, truth: GroundTruth) -> dict[str, f
         start = 0
         for a in amb:
             m = len(a.candidates)
-            p_true.append(a.probabilities[int(np.argmin(score[start : start + m]))])
+            best = int(np.argmin(score[start : start + m]))
+            on_outline = score[start + best] <= _CHI2_2_99
+            p_true.append(a.probabilities[best] if on_outline else a.p_none)
             start += m
         out["p_true_candidate"] = float(np.mean(p_true))
     return out
