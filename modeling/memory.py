@@ -252,6 +252,11 @@ class ModelMemory:
 
     def __post_init__(self) -> None:
         n = len(self.segments)
+        for name in ("segments", "contacts"):
+            if not all(isinstance(s, FloorSegment) for s in getattr(self, name)):
+                raise ValueError(f"{name} must all be FloorSegment instances")
+        if not all(isinstance(a, AmbiguousSegment) for a in self.ambiguous):
+            raise ValueError("ambiguous must all be AmbiguousSegment instances")
         if self.segment_arrays is None:
             object.__setattr__(self, "segment_arrays", stack_of(self.segments))
         elif self.segment_arrays.ends.shape[0] != n:
@@ -481,7 +486,7 @@ def fuse(
         existence=tuple(all_existence[keep].tolist()),
         ambiguous=ambiguous,
         contacts=memory.contacts,
-        seen=_seen_union(memory.seen, vis.polygon(opts.seen_tolerance_m), opts),
+        seen=_seen_union(memory.seen, vis.polygon(), opts),
         viewpoint=observation.viewpoint,
         fov_rad=observation.fov_rad,
         max_range_m=observation.max_range_m,

@@ -172,29 +172,46 @@ def reweight(
     if n_mem:
         free = ~touched & vis_free(mem.stack)
         ratio[free] = (1.0 - pd) / (1.0 - pf)
-    # (d) the posterior of each remembered ambiguity; resolution; pruning
+    # (d) the posterior of each remembered ambiguity (all at once); resolution; pruning
     out: list[AmbiguousSegment] = []
     seen: list[int] = []
     resolved: list[tuple[FloorSegment, float, int]] = []
-    detected_amb = np.zeros(len(remembered), dtype=bool)
-    if n_mem:
-        detected_amb[mem.owner[touched]] = True
-    start = 0
-    ratio_l, prob_l = ratio.tolist(), mem.prob.tolist()
-    for a, amb in enumerate(remembered):
-        stop = start + len(amb.candidates)
-        last = view if detected_amb[a] else remembered_seen[a]
-        if all(r == 1.0 for r in ratio_l[start:stop]):
-            out.append(amb)
-            seen.append(last)
-        else:
-            post = posterior(cand[start:stop], prob_l[start:stop], ratio_l[start:stop], opts)
-            if isinstance(post, AmbiguousSegment):
-                out.append(post)
+    n_amb = len(remembered)
+    if n_amb:
+        counts = np.bincount(mem.owner, minlength=n_amb)
+        starts = np.r_[0, np.cumsum(counts)[:-1]]
+        changed = np.add.reduceat((ratio != 1.0).astype(np.int64), starts) > 0
+        detected = np.add.reduceat(touched.astype(np.int64), starts) > 0
+        w = mem.prob * ratio
+        none = np.array([none_mass(amb.probabilities) for amb in remembered])
+        total = np.add.reduceat(w, starts) + none
+        post = w / total[mem.owner]
+        special = (
+            (np.maximum.reduceat(post, starts) >= opts.resolve_probability)
+            | (none / total >= opts.resolve_probability)
+            | (
+                np.add.reduceat((post < opts.min_candidate_probability).astype(np.int64), starts)
+                > 0
+            )
+        )
+        ratio_l, prob_l, post_l = ratio.tolist(), mem.prob.tolist(), post.tolist()
+        bounds = np.c_[starts, starts + counts].tolist()
+        for a, amb in enumerate(remembered):
+            last = view if detected[a] else remembered_seen[a]
+            lo, hi = bounds[a]
+            if not changed[a]:
+                out.append(amb)
                 seen.append(last)
-            elif post is not None:
-                resolved.append((post[0], post[1], last))
-        start = stop
+            elif not special[a]:
+                out.append(trusted_ambiguous(tuple(cand[lo:hi]), post_l[lo:hi]))
+                seen.append(last)
+            else:
+                result = posterior(cand[lo:hi], prob_l[lo:hi], ratio_l[lo:hi], opts)
+                if isinstance(result, AmbiguousSegment):
+                    out.append(result)
+                    seen.append(last)
+                elif result is not None:
+                    resolved.append((result[0], result[1], last))
     return AmbiguityUpdate(
         ambiguous=tuple(out),
         seen=tuple(seen),

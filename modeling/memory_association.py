@@ -179,17 +179,29 @@ def gaussian_product(
         mean_b: (..., 2) and cov_b (..., 2, 2): the other factor.
 
     Returns:
-        ``(mean, cov)`` of the same shapes (the covariance symmetrised).
+        ``(mean, cov)`` of the same shapes (the covariance exactly symmetric: closed-form 2x2
+        inverses of the symmetrised inputs).
     """
-    inv_a = np.linalg.inv(cov_a)
-    inv_b = np.linalg.inv(cov_b)
-    cov = np.linalg.inv(inv_a + inv_b)
-    cov = 0.5 * (cov + np.swapaxes(cov, -1, -2))
+    inv_a = _inverse(cov_a)
+    inv_b = _inverse(cov_b)
+    cov = _inverse(inv_a + inv_b)
     info = np.einsum("...ij,...j->...i", inv_a, mean_a) + np.einsum(
         "...ij,...j->...i", inv_b, mean_b
     )
     mean = np.einsum("...ij,...j->...i", cov, info)
     return mean, cov
+
+
+def _inverse(S: FloatArray) -> FloatArray:
+    """The inverses of a stack of symmetric 2x2 matrices (..., 2, 2), in closed form (exactly
+    symmetric)."""
+    a, b, d = S[..., 0, 0], S[..., 0, 1], S[..., 1, 1]
+    det = a * d - b * b
+    out = np.empty_like(S)
+    out[..., 0, 0] = d / det
+    out[..., 1, 1] = a / det
+    out[..., 0, 1] = out[..., 1, 0] = -b / det
+    return out
 
 
 def odds_update(p: FloatArray, ratio: FloatArray, high: float) -> FloatArray:

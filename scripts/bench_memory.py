@@ -13,8 +13,12 @@ sequence is fused into an empty memory (``--cache FILE``: the views are read fro
 when it exists, written to it otherwise), each ``fuse`` timed; and ``build_memory_model`` is timed
 on the memory of every tenth view.
 
-Figures: ``memory_fuse_ms`` (median over rounds of the per-round median of one fuse),
-``memory_fuse_p90_ms``, ``memory_build_model_ms`` (median of ``build_memory_model``),
+Figures: ``memory_fuse_ms`` (median over rounds of the per-round median of one fuse, wall
+time), ``memory_fuse_p90_ms``, ``memory_fuse_cpu_ms`` (the same in process CPU time: less
+sensitive to a shared machine's other jobs), ``single_view_model_ms`` (``build_model`` on each
+view, timed beside each fuse: the env's single-view modeling stage) and
+``memory_fuse_over_single_model_ratio`` (per round, then the median),
+``memory_build_model_ms`` (median of ``build_memory_model``),
 ``view_segments_mean`` (unambiguous segments per view), ``view_ambiguous_mean``,
 ``memory_segments_mean`` and ``memory_segments_max`` (remembered segments over the sequence),
 ``memory_ambiguous_mean``, ``memory_seen_vertices_max``.
@@ -44,6 +48,7 @@ from modeling import (
     FloorSegment,
     ModelMemory,
     build_memory_model,
+    build_model,
     fuse,
 )
 
@@ -111,15 +116,19 @@ def synthetic_views(steps: int, seed: int) -> list[FloorObservation]:
 
 def measure(views: list[FloorObservation], rounds: int) -> dict[str, float]:
     """The figures (see the module docstring)."""
-    fuse_medians, fuse_p90, build_ms = [], [], []
+    fuse_medians, fuse_p90, fuse_cpu, single, build_ms = [], [], [], [], []
     sizes, amb_sizes, vertices = [], [], []
     for r in range(rounds):
         memory = ModelMemory.empty()
-        times = []
+        times, cpu, single_times = [], [], []
         for k, obs in enumerate(views):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             memory = fuse(memory, obs)
             times.append(time.perf_counter() - t0)
+            cpu.append(time.process_time() - c0)
+            t0 = time.perf_counter()
+            build_model(obs, 0.5)
+            single_times.append(time.perf_counter() - t0)
             if r == 0:
                 sizes.append(len(memory.segments))
                 amb_sizes.append(len(memory.ambiguous))
@@ -129,10 +138,17 @@ def measure(views: list[FloorObservation], rounds: int) -> dict[str, float]:
                     build_memory_model(memory, 0.5)
                     build_ms.append(time.perf_counter() - t0)
         fuse_medians.append(1e3 * statistics.median(times))
+        fuse_cpu.append(1e3 * statistics.median(cpu))
+        single.append(1e3 * statistics.median(single_times))
         fuse_p90.append(1e3 * float(np.percentile(times, 90)))
     return {
         "memory_fuse_ms": statistics.median(fuse_medians),
         "memory_fuse_p90_ms": statistics.median(fuse_p90),
+        "memory_fuse_cpu_ms": statistics.median(fuse_cpu),
+        "single_view_model_ms": statistics.median(single),
+        "memory_fuse_over_single_model_ratio": statistics.median(
+            f / m for f, m in zip(fuse_medians, single, strict=True)
+        ),
         "memory_build_model_ms": 1e3 * statistics.median(build_ms) if build_ms else math.nan,
         "view_segments_mean": float(np.mean([len(v.segments) for v in views])),
         "view_ambiguous_mean": float(np.mean([len(v.ambiguous) for v in views])),
@@ -166,6 +182,8 @@ def main(argv: list[str] | None = None) -> None:
         args.cache.write_bytes(pickle.dumps(views))
     figures = measure(views, args.rounds)
     source = "synthetic" if args.synthetic else f"{args.scenario} seed {args.seed}"
+    if args.cache is not None:
+        source = f"{source}, views of {args.cache}"
     print(f"fuse over {len(views)} views ({source}), {args.rounds} rounds")
     print_figures(figures)
     write_figures(figures, args.json)

@@ -268,6 +268,8 @@ def test_bad_arguments_raise_naming_them() -> None:
         add_contact(ModelMemory.empty(), (1.0, 0.0), (1.0, 0.0), height_m=-1.0)
     with pytest.raises(ValueError, match="existence"):
         ModelMemory(segments=(seg((0, 0), (1, 0)),), existence=(), last_seen=(1,))
+    with pytest.raises(ValueError, match="segments"):
+        ModelMemory(segments=("wall",), existence=(0.5,), last_seen=(1,))  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="bounds"):
         ModelMemory.empty().unknown([0, 1])
 
