@@ -1,6 +1,9 @@
 """Figures of an environment model in the style of the paper's Figs. 6 and 11.
 
-matplotlib is imported lazily, inside :func:`plot_model`, so that ``import modeling`` (and this
+:func:`plot_model` draws a model's situations; :func:`plot_models` draws several models (the model
+of one view beside the model fused over many, section 6) side by side on common axes.
+
+matplotlib is imported lazily, inside the functions, so that ``import modeling`` (and this
 module) never pulls it in; a new figure is a plain :class:`matplotlib.figure.Figure` (no pyplot, no
 global backend change), to be saved with ``fig.savefig(...)``.
 """
@@ -15,7 +18,7 @@ import numpy as np
 
 from modeling.records import EnvironmentModel
 
-__all__ = ["plot_model"]
+__all__ = ["plot_model", "plot_models"]
 
 
 def _ellipse_xy(mean: np.ndarray, cov: np.ndarray, k: float = 2.0, n: int = 24) -> np.ndarray:
@@ -127,4 +130,79 @@ def plot_model(
         a.autoscale_view()
         picks = " ".join(f"{k}:{v if v >= 0 else 'none'}" for k, v in sit.choice.items())
         a.set_title(f"p = {sit.probability:.3g}" + (f"  [{picks}]" if picks else ""), fontsize=9)
+    return fig
+
+
+def plot_models(
+    models: Sequence[EnvironmentModel],
+    *,
+    titles: Sequence[str] | None = None,
+    ground_truth: Sequence[np.ndarray] | None = None,
+    seen: Sequence[Any] | None = None,
+    limits: tuple[float, float, float, float] | None = None,
+    show_ellipses: bool = True,
+) -> Any:
+    """Draw the most probable situation of each model in its own panel, side by side.
+
+    Each panel is :func:`plot_model` of one model on its axes (the same legend), under the
+    floor seen so far (light blue, where given), all panels on the same axes limits.
+
+    Args:
+        models: The models (at least one), world frame.
+        titles: One title per model, put before the situation's probability (default: none).
+        ground_truth: Optional (k, 2) outlines, world frame, metres, drawn in every panel.
+        seen: Optional, one per model: a shapely geometry of the floor seen (or ``None``).
+        limits: ``(x_min, x_max, y_min, y_max)`` metres; default: the union of the panels'.
+        show_ellipses: Draw endpoint uncertainty ellipses (2 sigma).
+
+    Returns:
+        A new :class:`matplotlib.figure.Figure` (not managed by pyplot).
+
+    Raises:
+        ValueError: No model, or ``titles`` / ``seen`` of another length than ``models``.
+    """
+    import shapely
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Polygon as MplPolygon
+
+    models = list(models)
+    if not models:
+        raise ValueError("models must hold at least one EnvironmentModel")
+    for name, values in (("titles", titles), ("seen", seen)):
+        if values is not None and len(values) != len(models):
+            raise ValueError(f"{name} must have one entry per model ({len(models)})")
+    fig = Figure(figsize=(6 * len(models), 5.5))
+    axes = [fig.add_subplot(1, len(models), k + 1) for k in range(len(models))]
+    for k, (ax, model) in enumerate(zip(axes, models, strict=True)):
+        area = None if seen is None else seen[k]
+        if area is not None and not area.is_empty:
+            for part in shapely.get_parts(area):
+                if isinstance(part, shapely.Polygon):
+                    ring = np.asarray(part.exterior.coords)
+                    ax.add_patch(MplPolygon(ring, closed=True, fc="#dcebf7", ec="none", zorder=-1))
+                    for hole in part.interiors:
+                        ax.add_patch(
+                            MplPolygon(
+                                np.asarray(hole.coords), closed=True, fc="w", ec="none", zorder=-0.5
+                            )
+                        )
+        if model.situations:
+            plot_model(model, ax=ax, ground_truth=ground_truth, show_ellipses=show_ellipses)
+        if titles is not None:
+            ax.set_title(f"{titles[k]}\n{ax.get_title()}", fontsize=9)
+        ax.set_aspect("equal")
+    if limits is None:
+        ax_limits = [(*ax.get_xlim(), *ax.get_ylim()) for ax in axes]
+        limits = (
+            min(v[0] for v in ax_limits),
+            max(v[1] for v in ax_limits),
+            min(v[2] for v in ax_limits),
+            max(v[3] for v in ax_limits),
+        )
+    for ax in axes:
+        ax.set_xlim(limits[0], limits[1])
+        ax.set_ylim(limits[2], limits[3])
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+    fig.tight_layout()
     return fig

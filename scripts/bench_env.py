@@ -16,8 +16,9 @@ jobs, weigh in), ``env_steps_per_s_at_median`` (1000 / ``env_step_ms``), ``env_r
 (the pair alone, same poses), ``env_step_over_render_ratio`` (step / pair, per round, then the
 median), ``env_reset_ms`` (a reset of the fixed map, its OpenGL context and distance field made
 already), and ``env_stage_<stage>_ms`` for each stage the env times in ``last_timings_ms``
-(physics, noise, render, segments, matching, triangulation, modeling, packing, rewards,
-diagnostics).
+(physics, noise, render, segments, matching, triangulation, modeling, fusion: the view and any
+contact fused into the episode's memory, memory_model: the fused model built, packing, rewards,
+diagnostics: of both models).
 
 ``--baseline DIR`` compares this checkout's env with another checkout's (DIR, e.g. the code
 before a change) in one run: the rounds alternate between the two trees (this, DIR, DIR, this,

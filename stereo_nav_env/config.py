@@ -41,15 +41,19 @@ __all__ = [
 
 
 class ObservationMode(str, Enum):
-    """What the observation holds: the model, the rectified pair, or both."""
+    """What the observation holds: the model of the latest view, the rectified pair, both, the
+    model fused over the episode's views (``memory``), or the latest view's and the fused one."""
 
     MODEL = "model"
     IMAGES = "images"
     BOTH = "both"
+    MEMORY = "memory"
+    MODEL_MEMORY = "model_memory"
 
 
 OBSERVATION_MODES = tuple(mode.value for mode in ObservationMode)
-"""The values of :class:`ObservationMode` (``"model"``, ``"images"``, ``"both"``)."""
+"""The values of :class:`ObservationMode` (``"model"``, ``"images"``, ``"both"``, ``"memory"``,
+``"model_memory"``)."""
 
 REGION_FEATURES = (
     "valid",
@@ -122,7 +126,9 @@ class ObservationConfig:
     Attributes:
         observation_mode: :class:`ObservationMode` (or its value): ``"model"`` (situations,
             critical regions, raster, goal, head pan), ``"images"`` (the rectified pair, goal,
-            head pan) or ``"both"``.
+            head pan), ``"both"`` (the two), ``"memory"`` (the fused model's situations,
+            critical regions and raster with its unknown channel, goal, head pan) or
+            ``"model_memory"`` (the model's keys and the fused model's).
         num_situations: K, the most probable situations observed (the rest are left out).
         num_regions: R, critical regions kept per situation (the nearest to the robot).
         raster_size_px: Side of the square egocentric raster, pixels (>= 36, SB3's CNN minimum).
@@ -167,12 +173,21 @@ class ObservationConfig:
     @property
     def has_model(self) -> bool:
         """Whether the model fields (situations, regions, raster) are observed."""
-        return self.observation_mode in (ObservationMode.MODEL, ObservationMode.BOTH)
+        return self.observation_mode in (
+            ObservationMode.MODEL,
+            ObservationMode.BOTH,
+            ObservationMode.MODEL_MEMORY,
+        )
 
     @property
     def has_images(self) -> bool:
         """Whether the rectified pair is observed."""
         return self.observation_mode in (ObservationMode.IMAGES, ObservationMode.BOTH)
+
+    @property
+    def has_memory(self) -> bool:
+        """Whether the fused model's fields (``memory_*``) are observed."""
+        return self.observation_mode in (ObservationMode.MEMORY, ObservationMode.MODEL_MEMORY)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

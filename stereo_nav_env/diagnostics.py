@@ -18,9 +18,12 @@ are always present.
   along an outline is not measured (the true point an endpoint stands for is not known there), and
   a wrong match that lands on another outline counts as right: both make these figures optimistic.
 * ``p_true_candidate``, ``ambiguous_segments``: for each ambiguous segment, the candidate that is
-  true is the one whose endpoints lie best on the true outlines (least mean ``z^2``);
-  ``p_true_candidate`` is the mean probability the model gave it (1 would be perfect
-  disambiguation; ``1 / m`` for m equal candidates is chance).
+  true is the one whose endpoints lie best on the true outlines (least mean ``z^2``), provided
+  that mean is at most chi^2_2(0.99) = 9.21; when no candidate lies that near an outline, every
+  candidate is a false match and the true choice is "no obstacle here" (its probability
+  ``p_none``, 0 when the candidates sum to 1). ``p_true_candidate`` is the mean probability the
+  model gave the true choice (1 would be perfect disambiguation; ``1 / m`` for m equal
+  candidates is chance).
 * ``passability_brier``, ``gaps_in_view``, ``gaps_scored``: the true doubtful gaps
   (:meth:`Scene.doubtful_gaps`, widths within 30 % of the robot width) whose two closest points
   lie in the field of view and range are ``gaps_in_view``. For each, the model's probability that
@@ -32,6 +35,12 @@ are always present.
   the mean squared difference between that probability and the truth (1 if the gap is wider than
   the robot, else 0) over the ``gaps_scored`` gaps: 0 is perfect, 0.25 is a coin toss.
 * ``situations``, ``residual_probability``: the model's count of situations and its left-out mass.
+
+The env gives the same figures of the fused model (:func:`modeling.memory.build_memory_model`,
+``info["memory_model"]``) beside these, named ``memory_<name>`` (``memory_passability_brier``,
+``memory_p_true_candidate``, ``memory_coverage_95``, ...): its fused segments and the candidates
+of the ambiguities still open, against the same true outlines; its gaps scored are those in the
+latest view, as for the single view.
 
 Everything is vectorised over endpoints and outline edges; the ground truth that does not change
 within an episode is prepared once per scene by :meth:`GroundTruth.of`.
@@ -218,7 +227,9 @@ def _outline_figures(model: EnvironmentModel, truth: GroundTruth) -> dict[str, f
         start = 0
         for a in amb:
             m = len(a.candidates)
-            p_true.append(a.probabilities[int(np.argmin(score[start : start + m]))])
+            best = int(np.argmin(score[start : start + m]))
+            on_outline = score[start + best] <= _CHI2_2_99
+            p_true.append(a.probabilities[best] if on_outline else a.p_none)
             start += m
         out["p_true_candidate"] = float(np.mean(p_true))
     return out
@@ -294,20 +305,25 @@ def _gap_figures(model: EnvironmentModel, truth: GroundTruth) -> dict[str, float
     }
 
 
-def model_diagnostics(model: EnvironmentModel, truth: GroundTruth) -> dict[str, float]:
+def model_diagnostics(
+    model: EnvironmentModel, truth: GroundTruth, *, prefix: str = ""
+) -> dict[str, float]:
     """``info["diagnostics"]``: the figures of the module docstring, keyed by name.
 
     Args:
-        model: The model of the latest observation.
+        model: The model of the latest observation (or the fused model of the episode's views:
+            its segments and candidates are measured alike, and its gaps in the latest view).
         truth: The scene's ground truth (:meth:`GroundTruth.of`).
+        prefix: Put before every name (the env gives the fused model's figures as
+            ``memory_<name>``).
 
     Returns:
-        A new dict of floats keyed by the names of :data:`DIAGNOSTIC_NAMES`, in that order,
-        without the figures that have nothing to measure (see the module docstring).
+        A new dict of floats keyed by ``prefix`` + the names of :data:`DIAGNOSTIC_NAMES`, in that
+        order, without the figures that have nothing to measure (see the module docstring).
     """
     out: dict[str, float] = {}
     out.update(_outline_figures(model, truth))
     out.update(_gap_figures(model, truth))
     out["situations"] = float(len(model.situations))
     out["residual_probability"] = float(model.residual_probability)
-    return {name: out[name] for name in DIAGNOSTIC_NAMES if not math.isnan(out[name])}
+    return {prefix + name: out[name] for name in DIAGNOSTIC_NAMES if not math.isnan(out[name])}

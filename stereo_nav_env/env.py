@@ -2,9 +2,11 @@
 
 Each step: the physics advances and the head pans (:mod:`.world`), the stereo pair is rendered
 (:mod:`.render`) with pixel noise from ``np_random``, the modeling pipeline runs
-(:mod:`.perception`), the observation is packed (:mod:`.observation`, :mod:`.raster`), the reward
-is computed (:mod:`.rewards`, :mod:`.geodesic`) and the model is compared with the truth
-(:mod:`.diagnostics`). ``render()`` draws with :mod:`.viewer`. Configuration: :mod:`.config`.
+(:mod:`.perception`), the view and any contact are fused into the episode's memory and its
+model is built (:mod:`modeling.memory`), the observation is packed (:mod:`.observation`,
+:mod:`.raster`), the reward is computed (:mod:`.rewards`, :mod:`.geodesic`) and both models are
+compared with the truth (:mod:`.diagnostics`). ``render()`` draws with :mod:`.viewer`.
+Configuration: :mod:`.config`.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
+from modeling.memory import MemoryOptions, ModelMemory, add_contact, build_memory_model, fuse
 from modeling.model import EnvironmentModel
 from modeling.pipeline import to_gray
 from modeling.rig import HeadPose, StereoRig
@@ -25,8 +28,9 @@ from stereo_nav_env.actions import DISCRETE_ACTIONS, continuous_command, discret
 from stereo_nav_env.config import EnvConfig
 from stereo_nav_env.diagnostics import GroundTruth, model_diagnostics
 from stereo_nav_env.geodesic import GeodesicField
-from stereo_nav_env.observation import goal_features, observation_space, pack_model
+from stereo_nav_env.observation import goal_features, observation_space, pack_memory, pack_model
 from stereo_nav_env.perception import (
+    ComparableModel,
     Stopwatch,
     add_pixel_noise,
     draw_noise_levels,
@@ -38,7 +42,7 @@ from stereo_nav_env.render import StereoRenderer
 from stereo_nav_env.rewards import reward_components
 from stereo_nav_env.scenes import Scene, load_scenario
 from stereo_nav_env.viewer import MapView, draw_background, draw_frame
-from stereo_nav_env.world import World
+from stereo_nav_env.world import Contact, World
 
 __all__ = ["StereoNavDiscreteEnv", "StereoNavEnv"]
 
@@ -53,11 +57,26 @@ STAGES = (
     "matching",
     "triangulation",
     "modeling",
+    "fusion",
+    "memory_model",
     "packing",
     "rewards",
     "diagnostics",
 )
 """Names of the stages timed in ``env.last_timings_ms``."""
+
+
+def memory_options(config: EnvConfig) -> MemoryOptions:
+    """How the env fuses views (:class:`~modeling.memory.MemoryOptions`): the defaults, with the
+    level head's vertical limit, so that the memory does not count as seen what lies below the
+    image's lower edge (a point of height ``h`` nearer than ``(head_height_m - h) /
+    tan(half_vfov_rad)``: the floor within 1.73 m with the defaults), and judges a segment in view
+    or not at its own height."""
+    camera = config.camera
+    return MemoryOptions(
+        head_height_m=config.world.head_height_m,
+        half_vfov_rad=math.atan((camera.height_px / 2.0) / camera.focal_px),
+    )
 
 
 def _pan_fraction(pan_rad: float, limit_rad: float) -> float:
@@ -83,8 +102,11 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     between their floor points is added (:mod:`modeling.faces`), so a plain face wider than the
     robot is not taken for a gap between its two edges. The observation
     packs that model; gaps close to the robot's width make passability genuinely uncertain, and
-    looking again from elsewhere resolves it. The model is of the latest view only (no memory
-    across steps: stack frames or use a recurrent policy for that).
+    looking again from elsewhere resolves it. Every view is also fused into the episode's memory
+    (:class:`~modeling.memory.ModelMemory`, paper section 6: segments associated and fused in the
+    world frame, ambiguous matches re-weighted by later views, floor seen free counting against
+    what it does not show, contacts as obstacles), whose model (``info["memory_model"]``) the
+    ``"memory"`` observation modes observe; the default mode observes the latest view's model.
 
     ## Action Space
     ``StereoNav-v0``: ``Box(-1, 1, (3,), float32)``; every action moves and looks:
@@ -147,6 +169,15 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     | `left`, `right`    | (H, W, 3)    | uint8   | [0, 255]    | the noisy rectified pair      |
     |                    |              |         |             | (``observation_mode``         |
     |                    |              |         |             | ``"images"`` or ``"both"``)   |
+    | `memory_situation_ | (K,)         | float32 | [0, 1]      | ``situation_probs`` of the    |
+    | probs`             |              |         |             | fused model                   |
+    | `memory_critical_  | (K * R * F,) | float32 | as          | ``critical_regions`` of the   |
+    | regions`           |              |         | `critical_  | fused model, in the robot     |
+    |                    |              |         | regions`    | frame of now                  |
+    | `memory_raster`    | (S, S, 4)    | uint8   | [0, 255]    | the `raster` channels of the  |
+    |                    |              |         |             | fused model, then unknown:    |
+    |                    |              |         |             | 255 where the floor was never |
+    |                    |              |         |             | seen in the episode           |
 
     The F region columns: valid, x_m, y_m (centre of the narrowest undecided relation),
     width_mean_m, width_std_m, p_passable, doubt (4p(1-p)), distance_m, bearing_rad, axis_x, axis_y
@@ -155,6 +186,9 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     [0, 1]; x_m, y_m in [-L, L]; width_mean_m, width_std_m, radius_m in [0, L]; distance_m in
     [0, 2L]; bearing_rad in [-pi, pi]; axis_x, axis_y in [-1, 1]. With
     ``observation_mode="images"`` only ``left``, ``right``, ``goal`` and ``head_pan`` are present.
+    The modes: ``"model"`` (the default: the latest view's model keys, ``goal``, ``head_pan``),
+    ``"images"``, ``"both"`` (model keys and images), ``"memory"`` (the three ``memory_*`` keys
+    instead of the model keys) and ``"model_memory"`` (the model keys and the ``memory_*`` keys).
     Details: :mod:`stereo_nav_env.observation`, :mod:`stereo_nav_env.raster`.
 
     ## Rewards
@@ -175,12 +209,14 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
 
     ## Info
     ``model`` (:class:`~modeling.model.EnvironmentModel` of the latest pair, compared by content),
-    ``diagnostics`` (floats comparing it with the truth: ``nees_mean``, ``coverage_95``,
-    ``passability_brier``, ``p_true_candidate`` and their counts; a figure with nothing to measure
-    in the view is left out; see :mod:`stereo_nav_env.diagnostics`; empty with
-    ``diagnostics=False``), ``reward_components`` (after a step), ``is_success``,
-    ``collision``, ``scene`` (its name), ``distance_to_goal_m`` (straight) and
-    ``geodesic_distance_m``.
+    ``memory_model`` (the fused model of every view of the episode so far, and its contacts:
+    :func:`modeling.memory.build_memory_model` of ``env.unwrapped.memory``, compared by content),
+    ``diagnostics`` (floats comparing them with the truth: ``nees_mean``, ``coverage_95``,
+    ``passability_brier``, ``p_true_candidate`` and their counts, and the same of the fused model
+    as ``memory_<name>``; a figure with nothing to measure in the view is left out; see
+    :mod:`stereo_nav_env.diagnostics`; empty with ``diagnostics=False``), ``reward_components``
+    (after a step), ``is_success``, ``collision``, ``scene`` (its name), ``distance_to_goal_m``
+    (straight) and ``geodesic_distance_m``.
 
     ## Arguments
     ``gym.make("StereoNav-v0", render_mode=None, **kwargs)``: ``render_mode`` is ``None`` or
@@ -199,7 +235,9 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     ## Version History
     * v0: the model-based observation (situations, critical regions, raster), move-and-look
       actions, named rewards with geodesic progress, diagnostics against ground truth (issue 5).
-      A first v0 of issue 2 observed only the goal and the head pan.
+      A first v0 of issue 2 observed only the goal and the head pan. Issue 16 added the fused
+      model (``info["memory_model"]``, the ``"memory"`` and ``"model_memory"`` observation modes,
+      the ``memory_*`` diagnostics); the default mode's spaces are unchanged.
     """
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 10}  # noqa: RUF012
@@ -225,6 +263,12 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self.scene: Scene | None = None
         self.world: World | None = None
         self.model: EnvironmentModel | None = None
+        self.memory: ModelMemory | None = None
+        """The episode's fused memory of every view so far (world frame)."""
+        self.memory_model: EnvironmentModel | None = None
+        """The model of :attr:`memory` (``info["memory_model"]``)."""
+        self.memory_options = memory_options(self.config)
+        """How views and contacts are fused (:class:`~modeling.memory.MemoryOptions`)."""
         self.last_timings_ms: dict[str, float] = {}
         self._clean_pair: tuple[UInt8Image, UInt8Image] | None = None
         self._noise_levels: NDArray[np.uint16] | None = None
@@ -299,8 +343,9 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         return self._renderer
 
     # ------------------------------------------------------------------ one observation
-    def _observe(self, watch: Stopwatch) -> Obs:
-        """Render the pair, run the pipeline, pack the observation (``self.model`` updated)."""
+    def _observe(self, watch: Stopwatch, contacts: tuple[Contact, ...] = ()) -> Obs:
+        """Render the pair, run the pipeline, fuse the view and ``contacts`` into the memory, pack
+        the observation (``self.model``, ``self.memory``, ``self.memory_model`` updated)."""
         cfg = self.config
         rig = self.rig
         sigma = cfg.camera.pixel_noise_std
@@ -337,6 +382,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             close_faces=cfg.close_faces,
             stopwatch=watch,
         )
+        self._remember(contacts, watch)
         world = self._require_world()
         pose = self.robot_pose
         assert self.scene is not None
@@ -348,24 +394,57 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         }
         if cfg.observation.has_model:
             obs.update(pack_model(self.model, pose, cfg.observation))
+        if cfg.observation.has_memory:
+            assert self.memory is not None and self.memory_model is not None
+            obs.update(pack_memory(self.memory_model, self.memory.seen, pose, cfg.observation))
         if cfg.observation.has_images:
             left, right = self._noisy_pair()
             obs["left"], obs["right"] = left.copy(), right.copy()
         watch.lap("packing")
         return obs
 
+    def _remember(self, contacts: tuple[Contact, ...], watch: Stopwatch) -> None:
+        """Fuse the latest view (``self.model``) and ``contacts`` into ``self.memory`` (laps
+        ``fusion``), then build ``self.memory_model`` from it (lap ``memory_model``)."""
+        cfg = self.config
+        assert self.model is not None and self.memory is not None
+        options = self.memory_options
+        memory = fuse(self.memory, self.model.observation, options)
+        for contact in contacts:
+            memory = add_contact(
+                memory,
+                contact.point_xy,
+                contact.normal_xy,
+                height_m=cfg.world.robot_height_m,
+                options=options,
+            )
+        self.memory = memory
+        watch.lap("fusion")
+        self.memory_model = ComparableModel.of(
+            build_memory_model(
+                memory,
+                cfg.world.robot_width_m,
+                eps=cfg.eps,
+                max_situations=cfg.model_max_situations,
+            )
+        )
+        watch.lap("memory_model")
+
     def _info(self, watch: Stopwatch, *, geodesic_m: float) -> dict[str, Any]:
         """The info dict of the current state (``geodesic_m``: its geodesic distance to the goal,
         which the caller has at hand)."""
         assert self.scene is not None and self._geodesic is not None and self.model is not None
+        assert self.memory_model is not None
         pose = self.robot_pose
         diagnostics: dict[str, float] = {}
         if self.config.diagnostics:
             assert self._truth is not None
             diagnostics = model_diagnostics(self.model, self._truth)
+            diagnostics.update(model_diagnostics(self.memory_model, self._truth, prefix="memory_"))
         watch.lap("diagnostics")
         return {
             "model": self.model,
+            "memory_model": self.memory_model,
             "diagnostics": diagnostics,
             "is_success": False,
             "collision": False,
@@ -406,6 +485,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             self._view = None
         self._steps = 0
         self._return = 0.0
+        self.memory = ModelMemory.empty()  # the first view is fused into an empty memory
         watch.lap("physics")
         obs = self._observe(watch)
         assert self._geodesic is not None
@@ -427,7 +507,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             command[2] * cfg.world.pan_limit_rad,
         )
         watch.lap("physics")
-        obs = self._observe(watch)
+        obs = self._observe(watch, result.contacts)
         pose = self.robot_pose
         after = self._geodesic(pose[:2])
         reached = math.hypot(self.scene.goal[0] - pose[0], self.scene.goal[1] - pose[1]) <= (

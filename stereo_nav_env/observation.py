@@ -5,8 +5,9 @@ Frames: the **robot frame** has its origin at the robot's centre, +x along the b
 [-pi, pi].
 
 Keys (K = ``num_situations``, R = ``num_regions``, F = ``len(REGION_FEATURES)`` = 12,
-S = ``raster_size_px``; the model keys are present in modes ``"model"`` and ``"both"``, the images
-in ``"images"`` and ``"both"``, ``goal`` and ``head_pan`` always):
+S = ``raster_size_px``; the model keys are present in modes ``"model"``, ``"both"`` and
+``"model_memory"``, the images in ``"images"`` and ``"both"``, the fused model's keys
+(``memory_*``) in ``"memory"`` and ``"model_memory"``, ``goal`` and ``head_pan`` always):
 
 | key                | shape       | dtype   | meaning                                          |
 |--------------------|-------------|---------|--------------------------------------------------|
@@ -19,6 +20,14 @@ in ``"images"`` and ``"both"``, ``goal`` and ``head_pan`` always):
 |                    |             |         | bearing_rad                                      |
 | `head_pan`         | (1,)        | float32 | head pan relative to the body / ``pan_limit_rad`` |
 | `left`, `right`    | (H, W, 3)   | uint8   | the rectified pair the model was built from       |
+| `memory_situation_probs` | (K,)  | float32 | ``situation_probs`` of the fused model            |
+| `memory_critical_regions` | (K * R * F,) | float32 | ``critical_regions`` of the fused model  |
+| `memory_raster`    | (S, S, 4)   | uint8   | the raster's three channels of the fused model,  |
+|                    |             |         | then unknown: 255 where the floor was never seen |
+
+The fused model is :func:`modeling.memory.build_memory_model` of the episode's
+:class:`~modeling.memory.ModelMemory` (every view so far fused in the world frame; ``info
+["memory_model"]``); its features are those of the model, in the robot frame of now.
 
 ``critical_regions`` is flat because stable-baselines3 treats every 3-D ``Box`` as an image (its
 checker warns about a float one); ``obs["critical_regions"].reshape(K, R, F)`` recovers the
@@ -54,12 +63,13 @@ from modeling.geometry import to_robot_frame
 from modeling.model import EnvironmentModel
 from modeling.rig import StereoRig
 from stereo_nav_env.config import REGION_FEATURES, ObservationConfig
-from stereo_nav_env.raster import rasterize_model
+from stereo_nav_env.raster import rasterize_memory, rasterize_model
 
 __all__ = [
     "GOAL_RANGE_M",
     "goal_features",
     "observation_space",
+    "pack_memory",
     "pack_model",
     "region_bounds",
     "to_robot_frame",
@@ -95,15 +105,16 @@ def observation_space(cfg: ObservationConfig, rig: StereoRig) -> spaces.Dict:
         ),
         "head_pan": spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32),
     }
-    if cfg.has_model:
-        K, R = cfg.num_situations, cfg.num_regions
-        low, high = region_bounds(cfg)
-        fields["situation_probs"] = spaces.Box(0.0, 1.0, shape=(K,), dtype=np.float32)
-        fields["critical_regions"] = spaces.Box(
+    K, R, S = cfg.num_situations, cfg.num_regions, cfg.raster_size_px
+    low, high = region_bounds(cfg)
+    for prefix, wanted, channels in (("", cfg.has_model, 3), ("memory_", cfg.has_memory, 4)):
+        if not wanted:
+            continue
+        fields[f"{prefix}situation_probs"] = spaces.Box(0.0, 1.0, shape=(K,), dtype=np.float32)
+        fields[f"{prefix}critical_regions"] = spaces.Box(
             low=np.tile(low, K * R), high=np.tile(high, K * R), dtype=np.float32
         )
-        S = cfg.raster_size_px
-        fields["raster"] = spaces.Box(0, 255, shape=(S, S, 3), dtype=np.uint8)
+        fields[f"{prefix}raster"] = spaces.Box(0, 255, shape=(S, S, channels), dtype=np.uint8)
     if cfg.has_images:
         shape = (rig.height_px, rig.width_px, 3)
         fields["left"] = spaces.Box(0, 255, shape=shape, dtype=np.uint8)
@@ -185,12 +196,42 @@ def pack_model(
     Returns:
         New arrays: (K,) float32, (K * R * F,) float32, (S, S, 3) uint8.
     """
+    return {
+        "situation_probs": _situation_probs(model, cfg),
+        "critical_regions": _region_table(model, robot_pose, cfg).reshape(-1),
+        "raster": rasterize_model(model, robot_pose, cfg),
+    }
+
+
+def _situation_probs(model: EnvironmentModel, cfg: ObservationConfig) -> Float32Array:
+    """(K,) float32: the K most probable situations' probabilities, 0 for missing ones."""
     K = cfg.num_situations
     probs = np.zeros(K, dtype=np.float32)
     p = [s.probability for s in model.situations[:K]]
     probs[: len(p)] = np.clip(np.asarray(p, dtype=np.float32), 0.0, 1.0)
+    return probs
+
+
+def pack_memory(
+    model: EnvironmentModel,
+    seen: Any,
+    robot_pose: tuple[float, float, float],
+    cfg: ObservationConfig,
+) -> dict[str, NDArray[Any]]:
+    """The fused model's fields of the observation: ``memory_situation_probs``,
+    ``memory_critical_regions``, ``memory_raster``.
+
+    Args:
+        model: The fused environment model (world frame).
+        seen: The floor seen so far in the episode (a shapely geometry, world frame).
+        robot_pose: ``(x_m, y_m, heading_rad)`` of the robot's centre, world frame.
+        cfg: K, R, raster size and extent, feature range.
+
+    Returns:
+        New arrays: (K,) float32, (K * R * F,) float32, (S, S, 4) uint8.
+    """
     return {
-        "situation_probs": probs,
-        "critical_regions": _region_table(model, robot_pose, cfg).reshape(-1),
-        "raster": rasterize_model(model, robot_pose, cfg),
+        "memory_situation_probs": _situation_probs(model, cfg),
+        "memory_critical_regions": _region_table(model, robot_pose, cfg).reshape(-1),
+        "memory_raster": rasterize_memory(model, seen, robot_pose, cfg),
     }

@@ -18,6 +18,13 @@ S`` metres. Viewed as RGB: red occupancy, green doubt, blue unobserved. Channels
    ``model.occluded``), 128 outside the field of view or beyond the range, 0 where the floor was
    seen free.
 
+The raster of the fused model (``obs["memory_raster"]``, :func:`rasterize_memory`) has these
+three channels, drawn from the fused model, and a fourth:
+
+3. **Unknown**: 255 where the floor has never been seen in the episode (outside the memory's
+   seen area, so also the floor near the robot that no view has covered), 0 where it has; a
+   pixel the seen area's boundary crosses counts as unknown.
+
 All drawing is OpenCV (``fillPoly``, ``polylines``) with 4 bits of sub-pixel precision; no
 per-pixel Python loops.
 """
@@ -29,15 +36,24 @@ import math
 
 import cv2
 import numpy as np
+import shapely
 from numpy.typing import NDArray
 
 from modeling.model import EnvironmentModel, Situation
 from stereo_nav_env.config import ObservationConfig
 
-__all__ = ["UNSEEN_VALUE", "rasterize_model", "world_to_raster"]
+__all__ = [
+    "UNKNOWN_VALUE",
+    "UNSEEN_VALUE",
+    "rasterize_memory",
+    "rasterize_model",
+    "unknown_channel",
+    "world_to_raster",
+]
 
 FloatArray = NDArray[np.float64]
 UNSEEN_VALUE = 128
+UNKNOWN_VALUE = 255
 _SHIFT = 4
 _SCALE = float(1 << _SHIFT)
 _ARC_POINTS = 24
@@ -166,4 +182,68 @@ def rasterize_model(
             out[:2] = np.clip(acc, 0, 255).astype(np.uint8)
     out[2] = _unobserved(model, A, b, size)
     raster: NDArray[np.uint8] = cv2.merge([out[0], out[1], out[2]])
+    return raster
+
+
+def unknown_channel(
+    seen: shapely.Geometry, robot_pose: tuple[float, float, float], cfg: ObservationConfig
+) -> NDArray[np.uint8]:
+    """Channel 3 of the memory raster: :data:`UNKNOWN_VALUE` outside ``seen``, 0 inside.
+
+    Args:
+        seen: The floor seen so far, world frame, metres (polygons; holes are left unknown).
+        robot_pose: ``(x_m, y_m, heading_rad)`` of the robot's centre, world frame.
+        cfg: Raster size and extent.
+
+    Returns:
+        A new uint8 array (S, S).
+    """
+    size = cfg.raster_size_px
+    out = np.full((size, size), UNKNOWN_VALUE, dtype=np.uint8)
+    if seen is None or seen.is_empty:
+        return out
+    A, b = world_to_raster(robot_pose, cfg)
+    # only the part within the raster's reach (its square, rotated, fits in this box) is drawn
+    reach = cfg.raster_half_extent_m * math.sqrt(2.0) + cfg.raster_cell_m
+    x, y = robot_pose[0], robot_pose[1]
+    near = shapely.clip_by_rect(seen, x - reach, y - reach, x + reach, y + reach)
+    rings = [
+        np.asarray(ring.coords)[:-1]
+        for part in shapely.get_parts(near)
+        if isinstance(part, shapely.Polygon) and not part.is_empty
+        for ring in (part.exterior, *part.interiors)
+    ]
+    rings = [r for r in rings if r.shape[0] >= 3]
+    if rings:  # one call: the even-odd fill leaves the holes out
+        pix = [_fixed(r, A, b) for r in rings]
+        cv2.fillPoly(out, pix, 0, cv2.LINE_8, _SHIFT)
+        # the fill covers every pixel its edges touch: those on the boundary count as unknown
+        cv2.polylines(out, pix, True, UNKNOWN_VALUE, 1, cv2.LINE_8, _SHIFT)
+    return out
+
+
+def rasterize_memory(
+    model: EnvironmentModel,
+    seen: shapely.Geometry,
+    robot_pose: tuple[float, float, float],
+    cfg: ObservationConfig,
+) -> NDArray[np.uint8]:
+    """The egocentric raster (S, S, 4) uint8 of the fused ``model`` and its ``seen`` floor.
+
+    Channels 0-2 are :func:`rasterize_model` of the fused model; channel 3 is
+    :func:`unknown_channel` of ``seen`` (see the module docstring).
+
+    Args:
+        model: The fused environment model (world frame).
+        seen: The floor seen so far in the episode, world frame.
+        robot_pose: ``(x_m, y_m, heading_rad)`` of the robot's centre, world frame.
+        cfg: Raster size and extent, and K (``num_situations``).
+
+    Returns:
+        A new uint8 array (S, S, 4), ``S = cfg.raster_size_px``.
+    """
+    three = rasterize_model(model, robot_pose, cfg)
+    raster: NDArray[np.uint8] = np.concatenate(
+        [three, unknown_channel(seen, robot_pose, cfg)[..., None]], axis=2
+    )
     return raster

@@ -25,7 +25,7 @@ from modeling.rig import HeadPose
 from modeling.validation import integer, number
 from stereo_nav_env.scenes import Scene
 
-__all__ = ["RobotState", "StepResult", "World", "WorldConfig"]
+__all__ = ["Contact", "RobotState", "StepResult", "World", "WorldConfig"]
 
 _ROBOT = 1
 _OBSTACLE = 2
@@ -110,16 +110,33 @@ class RobotState:
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
+class Contact:
+    """Where the robot touched an obstacle (from pymunk's contact point set).
+
+    Attributes:
+        point_xy: The contact point on the obstacle's surface, world frame, metres.
+        normal_xy: Unit normal of the obstacle's surface there, pointing out of the obstacle
+            (towards the robot's centre), world frame.
+    """
+
+    point_xy: tuple[float, float]
+    normal_xy: tuple[float, float]
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class StepResult:
     """What happened during one :meth:`World.step`.
 
     Attributes:
         collided: Whether the robot touched an obstacle in any substep.
         distance_m: Path length its centre travelled, metres.
+        contacts: The contacts of the last substep with a contact (empty when ``collided`` is
+            false), one per touched shape, those within 1 cm of an earlier one left out.
     """
 
     collided: bool
     distance_m: float
+    contacts: tuple[Contact, ...] = ()
 
 
 def _wrap(angle: float) -> float:
@@ -236,11 +253,26 @@ class World:
 
     def in_collision(self) -> bool:
         """Whether the robot's disc overlaps or touches an obstacle now."""
-        return any(
-            info.contact_point_set.points
-            and min(p.distance for p in info.contact_point_set.points) <= 1e-3
-            for info in self.space.shape_query(self.shape)
-        )
+        return bool(self.contacts())
+
+    def contacts(self) -> tuple[Contact, ...]:
+        """The robot's contacts with obstacles now (overlap or within 1 mm), one per touched
+        shape (its deepest point), those within 1 cm of an earlier one left out."""
+        out: list[Contact] = []
+        for info in self.space.shape_query(self.shape):
+            points = info.contact_point_set.points
+            if not points:
+                continue
+            deepest = min(points, key=lambda p: p.distance)
+            if deepest.distance > 1e-3:
+                continue
+            # pymunk's normal points from the robot (shape a) into the obstacle (shape b)
+            n = info.contact_point_set.normal
+            point = (float(deepest.point_b.x), float(deepest.point_b.y))
+            if any(math.dist(point, c.point_xy) < 0.01 for c in out):
+                continue
+            out.append(Contact(point_xy=point, normal_xy=(-float(n.x), -float(n.y))))
+        return tuple(out)
 
     # ------------------------------------------------------------------ dynamics
     def step(
@@ -254,7 +286,7 @@ class World:
             pan_target_rad: Head pan the head moves towards (clipped to the pan limits).
 
         Returns:
-            Whether it collided, and how far it moved.
+            Whether it collided (and where), and how far it moved.
         """
         cfg = self.config
         values = (forward_speed_m_s, turn_rate_rad_s, pan_target_rad)
@@ -267,7 +299,7 @@ class World:
         w = float(np.clip(turn_rate_rad_s, -cfg.max_turn_rate_rad_s, cfg.max_turn_rate_rad_s))
         target = float(np.clip(pan_target_rad, -cfg.pan_limit_rad, cfg.pan_limit_rad))
         h = cfg.dt_s / cfg.substeps
-        collided = False
+        contacts: tuple[Contact, ...] = ()
         distance = 0.0
         for _ in range(cfg.substeps):
             before = self.body.position
@@ -276,9 +308,9 @@ class World:
             self.body.angular_velocity = w
             self.space.step(h)
             distance += float((self.body.position - before).length)
-            collided = collided or self.in_collision()
+            contacts = self.contacts() or contacts
         self.body.velocity = (0.0, 0.0)
         self.body.angular_velocity = 0.0
         max_pan = cfg.max_pan_rate_rad_s * cfg.dt_s
         self._pan += float(np.clip(target - self._pan, -max_pan, max_pan))
-        return StepResult(collided=collided, distance_m=distance)
+        return StepResult(collided=bool(contacts), distance_m=distance, contacts=contacts)

@@ -77,3 +77,27 @@ def test_train_runs_end_to_end(tmp_path: pathlib.Path, small_map: pathlib.Path) 
     )  # fmt: skip
     assert result.model_path.is_file() and result.timesteps == 64
     assert (tmp_path / "ppo" / "learning_curve.png").is_file()
+
+
+def test_memory_eval_compares_the_fused_and_single_view_figures_on_the_same_steps(
+    tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.syspath_prepend(str(ROOT / "scripts"))  # its _figures helper lives there
+    out = tmp_path / "memory.json"
+    figures = _script("memory_eval").main(
+        ["--seeds", "1", "--max-steps", "4", "--scenario", "two_gaps", "--json", str(out)]
+    )
+    assert json.loads(out.read_text()) == pytest.approx(figures, nan_ok=True)
+    assert figures["steps"] == 5  # the reset and 4 steps
+    for name in ("p_true_candidate", "passability_brier", "coverage_95"):
+        assert {name, f"memory_{name}", f"{name}_steps"} <= set(figures)
+    assert figures["coverage_95_steps"] >= 1 and 0 <= figures["memory_coverage_95"] <= 1
+
+
+def test_memory_figure_draws_one_view_beside_the_fused_model(
+    tmp_path: pathlib.Path, small_map: pathlib.Path
+) -> None:
+    path = _script("memory_figure").main(
+        ["--scenario", str(small_map), "--views", "3", "--out", str(tmp_path / "m.png")]
+    )
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 5000

@@ -73,6 +73,20 @@ def test_p_true_candidate_is_the_probability_of_the_candidate_on_the_outline() -
     assert d["p_true_candidate"] == pytest.approx(0.3) and d["ambiguous_segments"] == 1.0
 
 
+def test_p_true_candidate_of_an_ambiguity_of_false_matches_only_is_its_none_mass() -> None:
+    box = make_obstacle("box", oriented_rect((4.0, 0.0), 1.0, 2.0))  # front face at x = 3.5
+    truth = GroundTruth.of(_scene(box), 0.5)
+    far = AmbiguousSegment(  # 0.6 m and 1.5 m (20 and 50 sigma) in front of the face
+        candidates=(_seg((2.9, 0.2), (2.9, 0.6)), _seg((2.0, 0.2), (2.0, 0.6))),
+        probabilities=(0.5, 0.2),
+    )
+    obs = FloorObservation(
+        segments=(_seg((3.5, -0.6), (3.5, -0.2)),), ambiguous=(far,), viewpoint=np.zeros(3)
+    )
+    d = model_diagnostics(build_model(obs, 0.5), truth)
+    assert d["p_true_candidate"] == pytest.approx(0.3)  # p_none: no candidate is real
+
+
 def test_passability_brier_over_a_doubtful_gap_in_view() -> None:
     # two thin walls at x in [3.5, 3.6], 0.55 m apart across y: wider than the 0.5 m robot
     a = make_obstacle("wall", oriented_rect((3.55, 1.0), 1.0, 0.1, math.pi / 2))

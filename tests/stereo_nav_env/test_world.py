@@ -63,6 +63,24 @@ def test_collision_with_a_concave_footprint() -> None:
     assert world.state.y_m <= 1.0 - 0.25 + 0.006
 
 
+@pytest.mark.parametrize("heading", [0.0, 0.4])
+def test_a_collision_reports_the_contact_point_and_the_surface_normal(heading: float) -> None:
+    wall = make_obstacle("wall", oriented_rect([3.0, 2.0], 0.1, 3.8))  # its face at x = 2.95
+    world = World(_scene(wall, start=(1.0, 1.6, heading)))
+    for _ in range(80):
+        hit = world.step(0.5, 0.0, 0.0)
+        if hit.collided:
+            break
+        assert hit.contacts == ()
+    assert hit.collided
+    (contact,) = hit.contacts
+    s = world.state
+    assert contact.point_xy[0] == pytest.approx(2.95, abs=1e-6)  # on the wall's face
+    assert contact.normal_xy == pytest.approx((-1.0, 0.0), abs=1e-6)  # out of the wall
+    # the point lies where the robot's disc touches the face: level with its centre
+    assert contact.point_xy[1] == pytest.approx(s.y_m, abs=0.02)
+
+
 def test_reset_forgets_contacts() -> None:
     wall = make_obstacle("wall", oriented_rect([3.0, 2.0], 0.1, 3.8))
     world = World(_scene(wall))
