@@ -105,6 +105,7 @@ def test_derived_values_are_properties() -> None:
         "eps",
         "model_max_situations",
         "close_faces",
+        "perception",
         "diagnostics",
         "world",
         "camera",
