@@ -271,9 +271,20 @@ def visible_edges(
     hide_hi = corners.reshape(-1, 4).max(axis=1)
     hide_lo[own], hide_hi[own] = -np.inf, np.inf
     keep = np.ones(cand.size, dtype=bool)
+    count = np.bincount(line, minlength=cand.size)
+    # one hiding interval (the usual case), at once: the longer of the runs below and above it
+    one = np.flatnonzero(count[line] == 1)
+    i1, a, b = line[one], hide_lo[one], hide_hi[one]
+    below_hi = np.minimum(a, high[i1])
+    above_lo = np.maximum(b, low[i1])
+    take_below = below_hi - low[i1] >= high[i1] - above_lo
+    low[i1], high[i1] = (
+        np.where(take_below, low[i1], above_lo),
+        np.where(take_below, below_hi, high[i1]),
+    )
     order = np.argsort(line, kind="stable")
     starts = np.searchsorted(line[order], np.arange(cand.size + 1))
-    for i in np.flatnonzero(np.diff(starts)).tolist():
+    for i in np.flatnonzero(count > 1).tolist():
         rows = order[starts[i] : starts[i + 1]]
         low[i], high[i] = _longest_run(
             low[i], high[i], hide_lo[rows].tolist(), hide_hi[rows].tolist()
