@@ -20,6 +20,11 @@ already), and ``env_stage_<stage>_ms`` for each stage the env times in ``last_ti
 contact fused into the episode's memory, memory_model: the fused model built, packing, rewards,
 diagnostics: of both models).
 
+The surrogate row: in every round, the same drive and seed through ``perception="surrogate"``
+(:mod:`stereo_nav_env.surrogate`, nothing rendered), right after the stereo env:
+``surrogate_env_step_ms``, ``surrogate_env_steps_per_s`` and ``surrogate_over_stereo_steps_per_s``
+(its steps per second over the stereo env's, per round, then the median).
+
 ``--baseline DIR`` compares this checkout's env with another checkout's (DIR, e.g. the code
 before a change) in one run: the rounds alternate between the two trees (this, DIR, DIR, this,
 this, DIR, ...), each round in a fresh subprocess with its tree first on ``sys.path``, the same
@@ -125,6 +130,37 @@ def one_round(steps: int, seed: int) -> dict[str, float]:
     return out
 
 
+def surrogate_round(steps: int, seed: int) -> dict[str, float]:
+    """The surrogate perception's figures of ``steps`` timed steps of the drive (the row's)."""
+    env = gym.make("StereoNav-v0", perception="surrogate")
+    step_ms: list[float] = []
+    try:
+        env.reset(seed=seed)
+        for i in range(5):
+            env.step(scripted_action(i))
+        for i in range(steps):
+            t0 = time.perf_counter()
+            _, _, terminated, truncated, _ = env.step(scripted_action(i))
+            step_ms.append((time.perf_counter() - t0) * 1e3)
+            if terminated or truncated:
+                env.reset()
+    finally:
+        env.close()
+    return {
+        "surrogate_env_step_ms": statistics.median(step_ms),
+        "surrogate_env_steps_per_s": 1e3 * len(step_ms) / sum(step_ms),
+    }
+
+
+def _with_surrogate(stereo: dict[str, float], steps: int, seed: int) -> dict[str, float]:
+    """``stereo``'s figures and the surrogate row of the same round."""
+    out = {**stereo, **surrogate_round(steps, seed)}
+    out["surrogate_over_stereo_steps_per_s"] = (
+        out["surrogate_env_steps_per_s"] / stereo["env_steps_per_s"]
+    )
+    return out
+
+
 def run(steps: int = 200, rounds: int = 3, *, quick: bool = False) -> dict[str, float]:
     """The figures of the module docstring, keyed by name.
 
@@ -137,7 +173,9 @@ def run(steps: int = 200, rounds: int = 3, *, quick: bool = False) -> dict[str, 
         raise ValueError(f"steps and rounds must be positive, got {steps}, {rounds}")
     if quick:
         steps, rounds = 40, 1
-    return _medians([one_round(steps, seed=r) for r in range(rounds)])
+    return _medians(
+        [_with_surrogate(one_round(steps, seed=r), steps, seed=r) for r in range(rounds)]
+    )
 
 
 def _medians(results: list[dict[str, float]]) -> dict[str, float]:

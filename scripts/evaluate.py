@@ -2,7 +2,7 @@
 
     python scripts/evaluate.py --agent NAME [--agent NAME ...] --episodes N --seed S --json FILE
         [--markdown FILE] [--plot FILE] [--details FILE] [--families F [F ...]]
-        [--max-steps N] [--workers K] [--terminate-on-collision]
+        [--max-steps N] [--workers K] [--terminate-on-collision] [--perception P]
 
 Agent names: random, greedy, cautious, planner, oracle, ppo:PATH. The logic is in
 :mod:`agents.evaluation`.
@@ -47,6 +47,12 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float | int]]:
         action="store_true",
         help="end an episode at its first collision (the env's default task)",
     )
+    parser.add_argument(
+        "--perception",
+        choices=("stereo", "surrogate"),
+        default="stereo",
+        help="the env's perception (surrogate: no rendering, stereo_nav_env.surrogate)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
 
@@ -58,6 +64,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float | int]]:
         env_kwargs={
             "terminate_on_collision": bool(args.terminate_on_collision),
             "diagnostics": False,
+            "perception": args.perception,
         },
         **kw,
     )

@@ -30,6 +30,7 @@ from stereo_nav_env.world import WorldConfig
 
 __all__ = [
     "OBSERVATION_MODES",
+    "PERCEPTIONS",
     "REGION_FEATURES",
     "CameraConfig",
     "EnvConfig",
@@ -54,6 +55,9 @@ class ObservationMode(str, Enum):
 OBSERVATION_MODES = tuple(mode.value for mode in ObservationMode)
 """The values of :class:`ObservationMode` (``"model"``, ``"images"``, ``"both"``, ``"memory"``,
 ``"model_memory"``)."""
+
+PERCEPTIONS = ("stereo", "surrogate")
+"""The values of ``EnvConfig.perception``: the rendered stereo pipeline, or its surrogate."""
 
 REGION_FEATURES = (
     "valid",
@@ -230,6 +234,10 @@ class EnvConfig:
         model_max_situations: Most situations the model enumerates (``info["model"]``).
         close_faces: Whether a face's bottom edge joining two vertical edges closes the "gap"
             between them (:mod:`modeling.faces`, an addition to the paper's pipeline).
+        perception: ``"stereo"`` (render the pair and run the stereo pipeline) or
+            ``"surrogate"`` (render nothing: the floor observation from the true scene and the
+            stereo's error model and measured rates, :mod:`stereo_nav_env.surrogate`; the
+            observation must then hold no images).
         diagnostics: Whether ``info["diagnostics"]`` compares the model with ground truth.
         world: The robot and its physics (:class:`~stereo_nav_env.world.WorldConfig`).
         camera: The stereo camera and its pixel noise (:class:`CameraConfig`).
@@ -243,6 +251,7 @@ class EnvConfig:
     eps: float = 0.05
     model_max_situations: int = 64
     close_faces: bool = True
+    perception: str = "stereo"
     diagnostics: bool = True
     world: WorldConfig = field(default_factory=WorldConfig)
     camera: CameraConfig = field(default_factory=CameraConfig)
@@ -263,10 +272,19 @@ class EnvConfig:
         boolean(self.terminate_on_collision, "terminate_on_collision")
         boolean(self.close_faces, "close_faces")
         boolean(self.diagnostics, "diagnostics")
+        if self.perception not in PERCEPTIONS:
+            raise ValueError(
+                f"perception must be one of {list(PERCEPTIONS)}, got {self.perception!r}"
+            )
         _instance(self.world, "world", WorldConfig)
         _instance(self.camera, "camera", CameraConfig)
         _instance(self.observation, "observation", ObservationConfig)
         _instance(self.rewards, "rewards", RewardConfig)
+        if self.perception == "surrogate" and self.observation.has_images:
+            raise ValueError(
+                "perception='surrogate' renders no images: observation_mode must be 'model', "
+                f"got {self.observation.observation_mode.value!r}"
+            )
 
     # ------------------------------------------------------------------ derived
     @property

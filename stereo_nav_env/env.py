@@ -41,6 +41,8 @@ from stereo_nav_env.perception import (
 from stereo_nav_env.render import StereoRenderer
 from stereo_nav_env.rewards import reward_components
 from stereo_nav_env.scenes import Scene, load_scenario
+from stereo_nav_env.surrogate import perceive_surrogate
+from stereo_nav_env.surrogate_visibility import SceneEdges
 from stereo_nav_env.viewer import MapView, draw_background, draw_frame
 from stereo_nav_env.world import Contact, World
 
@@ -231,6 +233,10 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     :class:`~stereo_nav_env.config.RewardConfig` (weights); an unknown or invalid one is a
     ``ValueError`` naming it. The configuration is ``env.unwrapped.config`` (e.g.
     ``config.world.max_speed_m_s``), its stereo rig ``env.unwrapped.rig``.
+    ``perception="surrogate"`` renders nothing: the floor observation comes from the true scene,
+    the stereo's error model and its measured rates (:mod:`stereo_nav_env.surrogate`,
+    ``docs/surrogate.md``), then the same modeling, packing, rewards and diagnostics; the
+    observation must then be ``"model"``.
 
     ## Version History
     * v0: the model-based observation (situations, critical regions, raster), move-and-look
@@ -277,6 +283,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self._truth: GroundTruth | None = None
         self._truth_scene: Scene | None = None
         self._renderer: StereoRenderer | None = None
+        self._edges: tuple[Scene, SceneEdges] | None = None
         self._view: tuple[MapView, UInt8Image] | None = None
         self._steps = 0
         self._return = 0.0
@@ -316,6 +323,8 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     def render_stereo(self) -> tuple[UInt8Image, UInt8Image]:
         """The noisy rectified pair of the latest observation: copies, uint8 (H, W, 3) each."""
         self._require_world()
+        if self._clean_pair is None:
+            raise RuntimeError("perception='surrogate' renders no stereo pair")
         left, right = self._noisy_pair()
         return left.copy(), right.copy()
 
@@ -343,11 +352,28 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         return self._renderer
 
     # ------------------------------------------------------------------ one observation
-    def _observe(self, watch: Stopwatch, contacts: tuple[Contact, ...] = ()) -> Obs:
-        """Render the pair, run the pipeline, fuse the view and ``contacts`` into the memory, pack
-        the observation (``self.model``, ``self.memory``, ``self.memory_model`` updated)."""
+    def _perceive(self, watch: Stopwatch) -> ComparableModel:
+        """The model of the current view: the rendered pair through the stereo pipeline, or
+        (``perception="surrogate"``) the surrogate, which renders nothing."""
         cfg = self.config
         rig = self.rig
+        head = self.head_pose
+        if cfg.perception == "surrogate":
+            assert self.scene is not None
+            if self._edges is None or self._edges[0] is not self.scene:
+                self._edges = (self.scene, SceneEdges.of(self.scene))
+            return perceive_surrogate(
+                self._edges[1],
+                rig,
+                head,
+                self.np_random,
+                robot_width_m=cfg.world.robot_width_m,
+                robot_height_m=cfg.world.robot_height_m,
+                eps=cfg.eps,
+                max_situations=cfg.model_max_situations,
+                close_faces=cfg.close_faces,
+                stopwatch=watch,
+            )
         sigma = cfg.camera.pixel_noise_std
         # the pixel noise is drawn in the worker thread while the pair renders (the generator
         # releases the interpreter lock; nothing else draws from np_random meanwhile, so the
@@ -355,7 +381,6 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         draw = None
         if sigma > 0:
             draw = worker().submit(draw_noise_levels, self.np_random, rig.height_px, rig.width_px)
-        head = self.head_pose
         self._clean_pair = self.stereo_renderer().render_stereo(head)
         levels = None if draw is None else draw.result()
         watch.lap("render")
@@ -370,7 +395,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
                 for image, lv in zip(self._clean_pair, levels, strict=True)
             ]
         watch.lap("noise")
-        self.model = perceive(
+        return perceive(
             grey[0],
             grey[1],
             self.rig,
@@ -382,6 +407,13 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             close_faces=cfg.close_faces,
             stopwatch=watch,
         )
+
+    def _observe(self, watch: Stopwatch, contacts: tuple[Contact, ...] = ()) -> Obs:
+        """Perceive (render the pair and run the pipeline, or the surrogate), fuse the view and
+        ``contacts`` into the memory, pack the observation (``self.model``, ``self.memory``,
+        ``self.memory_model`` updated)."""
+        cfg = self.config
+        self.model = self._perceive(watch)
         self._remember(contacts, watch)
         world = self._require_world()
         pose = self.robot_pose

@@ -108,6 +108,7 @@ def test_derived_values_are_properties() -> None:
         "eps",
         "model_max_situations",
         "close_faces",
+        "perception",
         "diagnostics",
         "world",
         "camera",

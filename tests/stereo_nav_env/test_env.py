@@ -69,9 +69,13 @@ def test_both_ids_are_registered_with_string_entry_points_and_time_limits() -> N
 
 
 @pytest.mark.parametrize("env_id", IDS)
-@pytest.mark.parametrize("mode", ["model", "images"])
-def test_gymnasium_and_sb3_checkers_pass_without_warnings(env_id: str, mode: str) -> None:
-    env = gym.make(env_id, observation_mode=mode, **SMALL)
+@pytest.mark.parametrize(
+    ("mode", "perception"), [("model", "stereo"), ("images", "stereo"), ("model", "surrogate")]
+)
+def test_gymnasium_and_sb3_checkers_pass_without_warnings(
+    env_id: str, mode: str, perception: str
+) -> None:
+    env = gym.make(env_id, observation_mode=mode, perception=perception, **SMALL)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error")
@@ -100,9 +104,12 @@ def _equal(a: object, b: object) -> bool:
     return bool(a == b)
 
 
-def test_same_seed_gives_identical_observations_rewards_and_infos_over_50_steps() -> None:
+@pytest.mark.parametrize("perception", ["stereo", "surrogate"])
+def test_same_seed_gives_identical_observations_rewards_and_infos_over_50_steps(
+    perception: str,
+) -> None:
     def rollout() -> list[tuple[Any, ...]]:
-        env = gym.make("StereoNav-v0", scenario="random", **SMALL)
+        env = gym.make("StereoNav-v0", scenario="random", perception=perception, **SMALL)
         obs, info = env.reset(seed=7)
         out: list[tuple[Any, ...]] = [
             (obs, info["diagnostics"], info["model"].probabilities.tolist(), info["scene"])
@@ -146,8 +153,9 @@ def test_different_seeds_differ_through_pixel_noise() -> None:
     assert not np.array_equal(left1, left2)
 
 
-def test_env_survives_a_pickle_round_trip_and_continues_identically() -> None:
-    env = gym.make("StereoNav-v0", **SMALL)
+@pytest.mark.parametrize("perception", ["stereo", "surrogate"])
+def test_env_survives_a_pickle_round_trip_and_continues_identically(perception: str) -> None:
+    env = gym.make("StereoNav-v0", perception=perception, **SMALL)
     env.reset(seed=5)
     env.step(np.array([1.0, 0.2, 0.5], np.float32))
     clone = pickle.loads(pickle.dumps(_u(env)))

@@ -1,0 +1,391 @@
+"""What a level stereo head could see of the true scene: the visibility sweep of the surrogate.
+
+The stereo pipeline (:mod:`modeling`) sees obstacles through the *vertical edges* of their rendered
+parts (footprint corners of walls and boxes, table and chair legs, bookshelf sides and dividers)
+and, for :func:`modeling.faces.close_faces`, the *bottom edges* of faces where they meet the floor.
+:class:`SceneEdges` lists those of a scene once (every corner of every rendered part, with its
+height range, and every footprint side of a part standing on the floor); :func:`visible_edges`
+keeps, for one head pose, the ones in the field of view and range, facing the camera and not
+occluded, with the part of their height that is seen and where they fall in the left image.
+
+Occlusion (the sweep). The sight line from the head (world ``(x, y)``, height ``Hh``) to a point
+of an edge at height ``z`` and floor distance ``D`` runs at height ``Hh + (z - Hh) t`` at the
+fraction ``t`` of ``D``. A part (footprint crossed by the line between ``t0`` and ``t1``, heights
+``[s0, s1]``) hides the heights ``z = Hh + (s - Hh) / t`` for ``s`` in ``[s0, s1]`` and ``t`` in
+``[t0, t1]``: an interval whose ends are among its four corners. The lines are tested against all
+part footprints at once (a ``shapely.STRtree`` query, then the vectorised intersections); a corner
+whose line passes through its own part (a back corner) is hidden whole. An edge keeps its longest
+visible run of heights.
+
+Frames and units: world metres, floor plane x-y, z up; image pixels (u right, v down, (0, 0) the
+centre of the top-left pixel); camera depth ``Z`` along the optical axis, ``X`` to the right.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from numpy.typing import NDArray
+
+from modeling.rig import HeadPose, StereoRig
+from stereo_nav_env.scenes import ObstacleKind, Scene
+
+__all__ = ["SceneEdges", "VisibleEdges", "visible_edges", "visible_floor_lines"]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+_PULL_BACK_M = 0.005
+"""The sight line stops this short of the edge, so that it does not touch the edge's own part."""
+_REPEATED_KINDS = (ObstacleKind.BOOKSHELF, ObstacleKind.TABLE, ObstacleKind.CHAIR)
+"""Kinds whose identical parts (legs, sides and dividers) repeat the same edge."""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class SceneEdges:
+    """The vertical edges and floor lines of a scene's rendered parts (world frame, metres).
+
+    Attributes:
+        polygons: (P,) shapely footprints of the parts.
+        tree: STRtree of ``polygons``.
+        z_min: (P,) bottom of each part, metres. ``z_max``: (P,) its top.
+        corner_xy: (C, 2) floor point of each corner edge. ``corner_z``: (C, 2) its bottom and top.
+        corner_part: (C,) the part it belongs to.
+        corner_normals: (C, 2, 2) outward unit normals of the part's two sides meeting there.
+        corner_group: (C,) edges of one group look alike (the same corner of identical parts of one
+            piece of furniture: legs, shelf sides and dividers); every other edge has its own.
+        corner_plain: (C,) whether the edge is a corner of a wall or a box (a plain prism), not
+            of furniture.
+        side_start: (P, V, 2) each part's corners (the last repeated up to ``V``, the most any
+            part has). ``side_normal``: (P, V, 2) the outward unit normal of the side from each.
+        line_ends: (L, 2, 2) floor sides of the parts standing on the floor (``z_min`` 0), the
+            part's counter-clockwise order. ``line_normal``: (L, 2) outward unit normals.
+            ``line_corners``: (L, 2) the corner edges at their two ends.
+    """
+
+    polygons: NDArray[np.object_]
+    tree: shapely.STRtree
+    z_min: FloatArray
+    z_max: FloatArray
+    corner_xy: FloatArray
+    corner_z: FloatArray
+    corner_part: IntArray
+    corner_normals: FloatArray
+    corner_group: IntArray
+    corner_plain: NDArray[np.bool_]
+    side_start: FloatArray
+    side_normal: FloatArray
+    line_ends: FloatArray
+    line_normal: FloatArray
+    line_corners: IntArray
+
+    @classmethod
+    def of(cls, scene: Scene) -> SceneEdges:
+        """The edges of every rendered part of ``scene``'s obstacles."""
+        polys: list[shapely.Polygon] = []
+        z_min: list[float] = []
+        z_max: list[float] = []
+        xy, zz, part_of, normals, groups, plain = [], [], [], [], [], []
+        ends: list[FloatArray] = []
+        line_n: list[FloatArray] = []
+        starts: list[FloatArray] = []
+        side_n: list[FloatArray] = []
+        line_c: list[tuple[int, int]] = []
+        keys: dict[tuple[object, ...], int] = {}
+        for o, ob in enumerate(scene.obstacles):
+            for part in ob.parts:
+                p = len(polys)
+                fp = part.footprint
+                polys.append(shapely.Polygon(fp))
+                z_min.append(part.z_min_m)
+                z_max.append(part.z_max_m)
+                side = np.roll(fp, -1, axis=0) - fp  # side k runs from corner k to k + 1
+                n = np.stack([side[:, 1], -side[:, 0]], axis=1)
+                n /= np.linalg.norm(n, axis=1, keepdims=True)
+                starts.append(fp)
+                side_n.append(n)
+                dims = tuple(np.round(np.linalg.norm(side, axis=1), 3).tolist())
+                for k in range(fp.shape[0]):
+                    xy.append(fp[k])
+                    zz.append((part.z_min_m, part.z_max_m))
+                    part_of.append(p)
+                    normals.append((n[k - 1], n[k]))
+                    key: tuple[object, ...] = (
+                        (o, dims, part.z_min_m, part.z_max_m, k)
+                        if ob.kind in _REPEATED_KINDS
+                        else (o, p, k)
+                    )
+                    groups.append(keys.setdefault(key, len(keys)))
+                    plain.append(ob.kind not in _REPEATED_KINDS)
+                if part.z_min_m <= 1e-6:
+                    first = len(xy) - fp.shape[0]
+                    ends.extend(np.stack([fp, np.roll(fp, -1, axis=0)], axis=1))
+                    line_n.extend(n)
+                    line_c.extend(
+                        (first + k, first + (k + 1) % fp.shape[0]) for k in range(fp.shape[0])
+                    )
+        v_max = max((fp.shape[0] for fp in starts), default=1)
+
+        def padded(rows: list[FloatArray]) -> FloatArray:
+            out = np.zeros((len(rows), v_max, 2))
+            for p, r in enumerate(rows):
+                out[p] = np.concatenate([r, np.repeat(r[-1:], v_max - r.shape[0], axis=0)])
+            return out
+
+        return cls(
+            polygons=np.array(polys, dtype=object),
+            tree=shapely.STRtree(polys),
+            z_min=np.array(z_min),
+            z_max=np.array(z_max),
+            corner_xy=np.array(xy).reshape(-1, 2),
+            corner_z=np.array(zz).reshape(-1, 2),
+            corner_part=np.array(part_of, dtype=np.int64),
+            corner_normals=np.array(normals).reshape(-1, 2, 2),
+            corner_group=np.array(groups, dtype=np.int64),
+            corner_plain=np.array(plain, dtype=bool),
+            side_start=padded(starts),
+            side_normal=padded(side_n),
+            line_ends=np.array(ends).reshape(-1, 2, 2),
+            line_normal=np.array(line_n).reshape(-1, 2),
+            line_corners=np.array(line_c, dtype=np.int64).reshape(-1, 2),
+        )
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class VisibleEdges:
+    """The edges one head pose sees (n of them), arrays of one row each.
+
+    Attributes:
+        corner: (n,) index into ``SceneEdges.corner_xy``.
+        X, Z: (n,) camera coordinates of the edge, metres (right, depth).
+        z_low, z_high: (n,) the seen run of its heights, metres.
+        u: (n,) its column in the left image, px. ``v_top``, ``v_bottom``: (n,) rows of the run.
+        group: (n,) its look-alike group (``SceneEdges.corner_group``).
+    """
+
+    corner: IntArray
+    X: FloatArray
+    Z: FloatArray
+    z_low: FloatArray
+    z_high: FloatArray
+    u: FloatArray
+    v_top: FloatArray
+    v_bottom: FloatArray
+    group: IntArray
+
+    def __len__(self) -> int:
+        return int(self.corner.shape[0])
+
+
+def _camera(xy: FloatArray, head: HeadPose) -> tuple[FloatArray, FloatArray]:
+    """Camera ``(X, Z)`` (right, depth) of world floor points (n, 2) for a level head."""
+    c, s = math.cos(head.heading_rad), math.sin(head.heading_rad)
+    dx, dy = xy[..., 0] - head.x_m, xy[..., 1] - head.y_m
+    return s * dx - c * dy, c * dx + s * dy
+
+
+def _in_view(X: FloatArray, Z: FloatArray, rig: StereoRig, margin_px: float) -> NDArray[np.bool_]:
+    """Whether camera points lie in the disparity range and in both images' columns."""
+    cx, _ = rig.principal_point_px
+    ok = (Z >= rig.min_depth_m) & (Z <= rig.max_depth_m)
+    Zs = np.where(ok, Z, 1.0)
+    u = cx + rig.focal_px * X / Zs
+    u_right = u - rig.fb / Zs
+    lo, hi = margin_px - 0.5, rig.width_px - 0.5 - margin_px
+    out: NDArray[np.bool_] = ok & (u >= lo) & (u <= hi) & (u_right >= lo) & (u_right <= hi)
+    return out
+
+
+def _blocked(
+    edges: SceneEdges, head: HeadPose, targets: FloatArray
+) -> tuple[IntArray, IntArray, FloatArray, FloatArray]:
+    """The parts crossing the sight lines from the head to floor points ``targets`` (n, 2).
+
+    The STRtree gives the parts whose bounding boxes the lines meet; each line is then clipped to
+    each such (convex) footprint (Cyrus-Beck: the line's parameter enters at the largest ``t`` of
+    the sides it crosses inwards and leaves at the smallest of those it crosses outwards).
+
+    Returns:
+        ``(line, part, t0, t1)``: one row per crossing, the fractions of the line's floor length
+        (from the head to the target) between which it is inside the part's footprint.
+    """
+    head_xy = np.array([head.x_m, head.y_m])
+    d = targets - head_xy
+    length = np.hypot(d[:, 0], d[:, 1])
+    stop = targets - d * (_PULL_BACK_M / np.maximum(length, 1e-9))[:, None]
+    lines = shapely.linestrings(np.stack([np.broadcast_to(head_xy, stop.shape), stop], axis=1))
+    line, part = edges.tree.query(lines)
+    a, n = edges.side_start[part], edges.side_normal[part]  # (k, V, 2)
+    step = (stop - head_xy)[line]  # (k, 2)
+    num = np.einsum("kvi,kvi->kv", n, a - head_xy)
+    den = np.einsum("kvi,ki->kv", n, step)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = num / den
+    outside = np.any((den == 0) & (num < 0), axis=1)
+    t0 = np.maximum(np.where(den < 0, t, -np.inf).max(axis=1), 0.0)
+    t1 = np.minimum(np.where(den > 0, t, np.inf).min(axis=1), 1.0)
+    hit = np.flatnonzero(~outside & (t1 > t0))
+    scale = 1.0 - _PULL_BACK_M / np.maximum(length[line[hit]], 1e-9)
+    return line[hit], part[hit], t0[hit] * scale, t1[hit] * scale
+
+
+def visible_edges(
+    edges: SceneEdges, head: HeadPose, rig: StereoRig, *, trim_px: float, min_length_px: float
+) -> VisibleEdges:
+    """The vertical edges the head sees, each with its longest visible run of heights.
+
+    An edge is seen where it lies in the disparity range and in both images' columns, where one
+    of the two sides meeting at it faces the head, and along the heights no part hides (the
+    module docstring) inside the image's rows. Its image run is trimmed by ``trim_px`` at both
+    ends (the fit's trimmed rows) and must keep ``min_length_px`` rows.
+
+    Args:
+        edges: The scene's edges.
+        head: Pose of the left optical centre (level).
+        rig: The stereo rig.
+        trim_px: Rows left out at each end of the image run, px.
+        min_length_px: Shortest image run kept, px.
+    """
+    X, Z = _camera(edges.corner_xy, head)
+    head_xy = np.array([head.x_m, head.y_m])
+    to_head = head_xy - edges.corner_xy
+    facing = np.einsum("cki,ci->ck", edges.corner_normals, to_head) > 0.0
+    cand = np.flatnonzero(_in_view(X, Z, rig, 1.0) & facing.any(axis=1))
+    X, Z = X[cand], Z[cand]
+    f, (cx, cy), Hh = rig.focal_px, rig.principal_point_px, head.height_m
+    # the heights inside the image's rows (v = cy + f (Hh - z) / Z), trimmed
+    z_img_low = Hh - (rig.height_px - 1.0 - trim_px - cy) * Z / f
+    z_img_high = Hh - (trim_px - cy) * Z / f
+    low = np.maximum(edges.corner_z[cand, 0], z_img_low)
+    high = np.minimum(edges.corner_z[cand, 1], z_img_high)
+    line, part, t0, t1 = _blocked(edges, head, edges.corner_xy[cand])
+    own = part == edges.corner_part[cand][line]
+    # hidden heights: Hh + (s - Hh) / t over s in [z_min, z_max], t in [t0, t1]
+    s = np.stack([edges.z_min[part], edges.z_max[part]], axis=1) - Hh  # (k, 2)
+    inv = 1.0 / np.maximum(np.stack([t0, t1], axis=1), 1e-9)  # (k, 2)
+    corners = Hh + s[:, :, None] * inv[:, None, :]
+    hide_lo = corners.reshape(-1, 4).min(axis=1)
+    hide_hi = corners.reshape(-1, 4).max(axis=1)
+    hide_lo[own], hide_hi[own] = -np.inf, np.inf
+    keep = np.ones(cand.size, dtype=bool)
+    count = np.bincount(line, minlength=cand.size)
+    # one hiding interval (the usual case), at once: the longer of the runs below and above it
+    one = np.flatnonzero(count[line] == 1)
+    i1, a, b = line[one], hide_lo[one], hide_hi[one]
+    below_hi = np.minimum(a, high[i1])
+    above_lo = np.maximum(b, low[i1])
+    take_below = below_hi - low[i1] >= high[i1] - above_lo
+    low[i1], high[i1] = (
+        np.where(take_below, low[i1], above_lo),
+        np.where(take_below, below_hi, high[i1]),
+    )
+    order = np.argsort(line, kind="stable")
+    starts = np.searchsorted(line[order], np.arange(cand.size + 1))
+    for i in np.flatnonzero(count > 1).tolist():
+        rows = order[starts[i] : starts[i + 1]]
+        low[i], high[i] = _longest_run(
+            low[i], high[i], hide_lo[rows].tolist(), hide_hi[rows].tolist()
+        )
+    v_top = cy + f * (Hh - high) / Z
+    v_bottom = cy + f * (Hh - low) / Z
+    keep &= v_bottom - v_top >= min_length_px
+    sel = np.flatnonzero(keep)
+    corner = cand[sel]
+    return VisibleEdges(
+        corner=corner,
+        X=X[sel],
+        Z=Z[sel],
+        z_low=low[sel],
+        z_high=high[sel],
+        u=cx + f * X[sel] / Z[sel],
+        v_top=v_top[sel],
+        v_bottom=v_bottom[sel],
+        group=edges.corner_group[corner],
+    )
+
+
+def _longest_run(
+    low: float, high: float, hide_lo: list[float], hide_hi: list[float]
+) -> tuple[float, float]:
+    """The longest part of ``[low, high]`` outside every ``[hide_lo[k], hide_hi[k]]``
+    (``(low, low)`` when nothing is left)."""
+    best = (low, low)
+    cursor = low
+    for a, b in sorted(zip(hide_lo, hide_hi, strict=True)):
+        if a > cursor and min(a, high) - cursor > best[1] - best[0]:
+            best = (cursor, min(a, high))
+        cursor = max(cursor, b)
+        if cursor >= high:
+            break
+    if high - cursor > best[1] - best[0]:
+        best = (cursor, high)
+    return best
+
+
+def visible_floor_lines(
+    edges: SceneEdges,
+    head: HeadPose,
+    rig: StereoRig,
+    corners: IntArray,
+    *,
+    samples: int = 5,
+    max_range_m: float,
+) -> FloatArray:
+    """The image lines of the parts' floor sides the head sees, (k, 2, 2) ``[[u, v], [u, v]]`` px,
+    left end first.
+
+    Only the sides whose two ends lie within 2 cm of edges among ``corners`` (indices into
+    ``SceneEdges.corner_xy``: those seen, the only ones a face can join; a shelf's bottom board
+    runs between the corners of its sides) are looked at. A side
+    within ``max_range_m`` whose outer face turns to the head is sampled at
+    ``samples`` points; a point is seen if it is in the image (both images' columns, the rows)
+    and no part hides the floor there. Each run of seen points gives one line, from half a sample
+    step before its first point to half a step after its last (clipped to the side).
+    """
+    if edges.line_ends.shape[0] == 0:
+        return np.zeros((0, 2, 2))
+    head_xy = np.array([head.x_m, head.y_m])
+    mid = edges.line_ends.mean(axis=1)
+    near = np.hypot(*(mid - head_xy).T) <= max_range_m
+    facing = np.einsum("li,li->l", edges.line_normal, head_xy - mid) > 0.0
+    seen_xy = edges.corner_xy[corners]  # (c, 2)
+    gap = edges.line_ends[:, :, None, :] - seen_xy[None, None]  # (L, 2, c, 2)
+    both = ((gap * gap).sum(axis=-1).min(axis=-1, initial=np.inf) <= 0.02**2).all(axis=1)
+    lines = np.flatnonzero(near & facing & both)
+    if lines.size == 0:
+        return np.zeros((0, 2, 2))
+    t = (np.arange(samples) + 0.5) / samples
+    a, b = edges.line_ends[lines, 0], edges.line_ends[lines, 1]
+    pts = a[:, None] + t[None, :, None] * (b - a)[:, None]  # (l, samples, 2)
+    flat = pts.reshape(-1, 2)
+    X, Z = _camera(flat, head)
+    f, (cx, cy), Hh = rig.focal_px, rig.principal_point_px, head.height_m
+    seen = _in_view(X, Z, rig, 1.0)
+    seen &= cy + f * Hh / np.where(Z > 0, Z, 1.0) <= rig.height_px - 1.0
+    line, part, t0, t1 = _blocked(edges, head, flat)
+    # the floor point (t = 1) is hidden by a part whose height range the sight line (at height
+    # Hh (1 - t)) meets between t0 and t1
+    seen[line[(Hh * (1.0 - t0) > edges.z_min[part]) & (Hh * (1.0 - t1) < edges.z_max[part])]] = (
+        False
+    )
+    seen = seen.reshape(lines.size, samples)
+    # runs of seen samples: a start where the previous sample is unseen, a stop where the next is
+    pad = np.zeros((lines.size, samples + 2), dtype=bool)
+    pad[:, 1:-1] = seen
+    line_k, first = np.nonzero(pad[:, 1:-1] & ~pad[:, :-2])
+    _, last = np.nonzero(pad[:, 1:-1] & ~pad[:, 2:])  # row-major: the same runs, in order
+    if line_k.size == 0:
+        return np.zeros((0, 2, 2))
+    half = 0.5 / samples
+    ta, tb = t[first] - half, t[last] + half
+    ab = (b - a)[line_k]
+    ends = np.stack([a[line_k] + ta[:, None] * ab, a[line_k] + tb[:, None] * ab], axis=1)
+    Xe, Ze = _camera(ends, head)
+    Ze = np.maximum(Ze, 1e-6)
+    img = np.stack([cx + f * Xe / Ze, cy + f * Hh / Ze], axis=-1)
+    swap = img[:, 0, 0] > img[:, 1, 0]
+    img[swap] = img[swap, ::-1]
+    return img

@@ -1,0 +1,215 @@
+"""The surrogate perception: the visibility sweep, ambiguous shelf fronts, the depth growth of
+the covariances, determinism, the configuration field, and that it renders nothing."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import stereo_nav_env  # noqa: F401  (registers the ids)
+from modeling.matching import match_segments
+from modeling.rig import HeadPose, StereoRig
+from modeling.triangulation import triangulate_to_floor
+from stereo_nav_env.config import EnvConfig
+from stereo_nav_env.env import StereoNavEnv
+from stereo_nav_env.scenes import BoxPart, Obstacle, ObstacleKind, Scene
+from stereo_nav_env.scenes.parts import make_obstacle, oriented_rect
+from stereo_nav_env.surrogate import (
+    SurrogateRates,
+    default_rates,
+    perceive_surrogate,
+    surrogate_segments,
+)
+from stereo_nav_env.surrogate_visibility import SceneEdges, visible_edges
+
+RIG = StereoRig()
+HEAD = HeadPose(x_m=0.5, y_m=2.5, heading_rad=0.0, height_m=0.8)
+BINS = (0.0, 100.0)
+EXACT = SurrogateRates(  # nothing missed, nothing false, no strays: the error model alone
+    depth_bins_m=BINS,
+    miss_rate_plain=(0.0,),
+    miss_rate_furniture=(0.0,),
+    false_match_rate=(0.0,),
+    false_error_px=(2.0,),
+    stray_rate=(0.0,),
+    stray_offset_px=(5.0,),
+    error_scale=1.0,
+)
+
+
+def _scene(*obstacles: Obstacle) -> Scene:
+    return Scene(
+        name="test",
+        bounds=(0.0, 0.0, 10.0, 5.0),
+        obstacles=obstacles,
+        start=(0.5, 2.5, 0.0),
+        goal=(9.0, 2.5),
+    )
+
+
+def _box(x: float, y: float, size: float, height: float) -> Obstacle:
+    return make_obstacle(ObstacleKind.BOX, oriented_rect([x, y], size, size), height)
+
+
+def _visible(scene: Scene) -> tuple[SceneEdges, np.ndarray]:
+    edges = SceneEdges.of(scene)
+    vis = visible_edges(edges, HEAD, RIG, trim_px=2, min_length_px=12.0)
+    return edges, vis
+
+
+def test_the_sweep_hides_what_is_behind_a_box() -> None:
+    front = _box(3.0, 2.5, 0.6, 0.7)
+    behind = _box(6.0, 2.5, 0.4, 0.5)  # lower than the sight lines over the front box allow
+    edges, vis = _visible(_scene(front, behind))
+    _, alone = _visible(_scene(behind))
+    hidden = {4, 5, 6, 7}  # the corners of the box behind (the second obstacle)
+    assert len(alone) >= 2 and set(alone.corner.tolist()) <= {0, 1, 2, 3}
+    assert not hidden & set(vis.corner.tolist())
+    # the front box's two front corners (x = 2.7) are seen whole, from the floor up to 0.7 m
+    seen_front = vis.corner[edges.corner_xy[vis.corner, 0] < 2.8]
+    assert len(seen_front) == 2
+
+
+def test_a_tall_edge_behind_a_box_is_seen_above_the_sight_line_over_it() -> None:
+    front = _box(3.0, 2.5, 0.6, 0.7)
+    pillar = _box(6.0, 2.5, 0.2, 2.0)  # front corners at x = 5.9, y = 2.4 and 2.6
+    edges, vis = _visible(_scene(front, pillar))
+    k = np.flatnonzero(np.all(np.isclose(edges.corner_xy[vis.corner], [5.9, 2.4]), axis=1))
+    assert k.size == 1
+    # the sight line leaves the box (x = 3.3) at t1 = 2.8 / 5.4 of the way: the heights below
+    # Hh + (0.7 - Hh) / t1 are hidden
+    t1 = (3.3 - 0.5) / (5.9 - 0.5)
+    assert vis.z_low[k[0]] == pytest.approx(0.8 + (0.7 - 0.8) / t1, abs=1e-9)
+    # its top (2 m) is below the image's first rows there (3.24 m at 5.4 m): seen up to the top
+    assert vis.z_high[k[0]] == 2.0
+
+
+def _shelf_scene() -> Scene:
+    # the front (first side) faces -y, towards a head looking along -y from 2.5 m away
+    shelf = make_obstacle(ObstacleKind.BOOKSHELF, oriented_rect([5.0, 4.0], 1.8, 0.35, 0.0))
+    return _scene(shelf)
+
+
+def test_a_bookshelf_front_gives_ambiguous_candidates_with_the_true_one_among_them() -> None:
+    scene = _shelf_scene()
+    head = HeadPose(x_m=5.0, y_m=1.3, heading_rad=math.pi / 2, height_m=0.8)
+    model = perceive_surrogate(
+        SceneEdges.of(scene),
+        RIG,
+        head,
+        np.random.default_rng(0),
+        robot_width_m=0.5,
+        robot_height_m=1.0,
+        eps=0.05,
+        max_situations=64,
+        rates=SurrogateRates(**{**_fields(EXACT), "error_scale": 1e-6}),  # the means exact
+    )
+    ambiguous = model.observation.ambiguous
+    assert len(ambiguous) >= 2
+    corners = np.vstack([p.footprint for p in scene.obstacles[0].parts])
+    for amb in ambiguous:
+        assert len(amb.candidates) >= 2 and math.isclose(sum(amb.probabilities), 1.0)
+        # the true candidate: both floor points on a corner of a shelf side or divider
+        dist = [
+            np.linalg.norm(c.endpoints[:, None] - corners[None], axis=-1).min(axis=1).max()
+            for c in amb.candidates
+        ]
+        assert min(dist) < 0.005
+        assert max(dist) > 0.3  # the others stand at the other dividers' disparities
+    assert len(model.situations) > 1
+
+
+@pytest.mark.parametrize("depth_m", [2.0, 4.0])
+def test_covariances_grow_with_depth_as_the_triangulation_error_model(depth_m: float) -> None:
+    # a prism floating in the height band (0.2 to 0.6 m): no band clip, nothing hides it
+    part = BoxPart(
+        footprint=oriented_rect([0.5 + depth_m + 0.1, 2.5], 0.2, 0.2),
+        z_min_m=0.2,
+        z_max_m=0.6,
+        color=(0.5, 0.5, 0.5),
+    )
+    ob = Obstacle(
+        kind=ObstacleKind.BOX,
+        footprint=part.footprint,
+        height_m=0.6,
+        color=(0.5, 0.5, 0.5),
+        parts=(part,),
+    )
+    left, right = surrogate_segments(
+        SceneEdges.of(_scene(ob)), RIG, HEAD, np.random.default_rng(1), EXACT
+    )
+    assert len(left) == 2  # the two front corners at depth ``depth_m``
+    matches = match_segments(left, right, RIG)
+    floor = triangulate_to_floor(matches, RIG, HEAD)
+    assert len(floor.segments) == 2
+    for seg in floor.segments:
+        i = seg.source
+        v = left.endpoints[i, :, 1]
+        var_d = left.u_var_at(np.array([i, i]), v) + right.u_var_at(np.array([i, i]), v)
+        # the head looks along +x: the depth variance is (Z^2 / (f b))^2 var_d exactly
+        Z = seg.endpoints[:, 0] - HEAD.x_m
+        assert np.allclose(seg.cov[:, 0, 0], (Z**2 / RIG.fb) ** 2 * var_d, rtol=1e-9)
+        assert np.allclose(Z, depth_m, atol=0.1)
+
+
+def test_the_same_seed_gives_the_same_surrogate_rollout_and_another_seed_another() -> None:
+    def rollout(seed: int) -> list[object]:
+        env = gym.make("StereoNav-v0", perception="surrogate")
+        obs, _ = env.reset(seed=seed)
+        out: list[object] = [obs["raster"].tobytes()]
+        for i in range(30):
+            obs, reward, *_, info = env.step(np.array([0.4, 0.2, math.sin(i / 4)], np.float32))
+            out += [
+                obs["raster"].tobytes(),
+                obs["critical_regions"].tobytes(),
+                reward,
+                info["model"],
+                info["diagnostics"],
+            ]
+        env.close()
+        return out
+
+    a, b, c = rollout(3), rollout(3), rollout(4)
+    assert all(x == y for x, y in zip(a, b, strict=True))
+    assert any(x != y for x, y in zip(a, c, strict=True))  # the noise comes from np_random
+
+
+def test_the_surrogate_makes_no_renderer_and_keeps_the_spaces() -> None:
+    stereo = gym.make("StereoNav-v0")
+    env = gym.make("StereoNav-v0", perception="surrogate")
+    env.reset(seed=0)
+    env.step(env.action_space.sample())
+    base = env.unwrapped
+    assert isinstance(base, StereoNavEnv)
+    assert base._renderer is None and base._clean_pair is None  # no OpenGL context was made
+    assert env.observation_space == stereo.observation_space
+    assert env.action_space == stereo.action_space
+    with pytest.raises(RuntimeError, match="surrogate"):
+        base.render_stereo()
+    env.close()
+    stereo.close()
+
+
+def test_perception_is_a_validated_config_field() -> None:
+    assert EnvConfig().perception == "stereo"
+    with pytest.raises(ValueError, match="perception"):
+        EnvConfig.from_kwargs(perception="lidar")
+    with pytest.raises(ValueError, match="observation_mode"):
+        EnvConfig.from_kwargs(perception="surrogate", observation_mode="images")
+
+
+def test_the_packaged_rates_are_valid_and_bad_rates_are_value_errors() -> None:
+    rates = default_rates()
+    assert len(rates.miss_rate_plain) == len(rates.depth_bins_m) - 1
+    assert rates.error_scale > 0
+    with pytest.raises(ValueError, match="miss_rate_plain"):
+        SurrogateRates(**{**_fields(EXACT), "miss_rate_plain": (1.5,)})
+    with pytest.raises(ValueError, match="depth_bins_m"):
+        SurrogateRates(**{**_fields(EXACT), "depth_bins_m": (2.0, 1.0)})
+
+
+def _fields(rates: SurrogateRates) -> dict[str, object]:
+    return {name: getattr(rates, name) for name in SurrogateRates.__dataclass_fields__}
