@@ -46,11 +46,13 @@ __all__ = [
     "EpisodeSpec",
     "SuiteConfig",
     "bootstrap_ci",
+    "env_config",
     "episode_records",
     "evaluate",
     "markdown_table",
     "plot_summary",
     "run_episode",
+    "suite_env_config",
     "suite_episodes",
     "suite_rules",
     "summarize",
@@ -184,18 +186,28 @@ class EpisodeResult:
     time_s: float
 
 
-def suite_rules(cfg: SuiteConfig) -> dict[str, Any]:
-    """The episode rules the suite runs under (``EnvConfig.rules_dict()`` of its env, the env id
-    and the step limit): what every result records."""
+def env_config(env_id: str, **kwargs: Any) -> Any:
+    """The ``EnvConfig`` that ``gym.make(env_id, **kwargs)`` builds (its registered keywords
+    first), without building the env: training and evaluation compare theirs with it."""
     import gymnasium as gym
 
     import stereo_nav_env  # noqa: F401  (registers the ids)
     from stereo_nav_env.config import EnvConfig
 
-    kwargs = {**gym.spec(ENV_ID).kwargs, **cfg.env_kwargs, "scenario": cfg.families[0]}
+    return EnvConfig.from_kwargs(**{**gym.spec(env_id).kwargs, **kwargs})
+
+
+def suite_env_config(cfg: SuiteConfig, family: str) -> Any:
+    """The ``EnvConfig`` of the suite's episodes of ``family``."""
+    return env_config(ENV_ID, **cfg.env_kwargs, scenario=family)
+
+
+def suite_rules(cfg: SuiteConfig) -> dict[str, Any]:
+    """The episode rules the suite runs under (``EnvConfig.rules_dict()`` of its env, the env id
+    and the step limit): what every result records."""
     return {
         "env_id": ENV_ID,
-        **EnvConfig.from_kwargs(**kwargs).rules_dict(),
+        **suite_env_config(cfg, cfg.families[0]).rules_dict(),
         "max_episode_steps": cfg.max_steps,
     }
 

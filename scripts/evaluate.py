@@ -32,8 +32,8 @@ from agents.evaluation import (
 )
 
 
-def main(argv: list[str] | None = None) -> dict[str, dict[str, Any]]:
-    """Parse the arguments, run the suite, write the outputs; returns the summary."""
+def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]:
+    """The parsed command line and its suite."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--agent", action="append", required=True, help="agent name (repeat)")
     parser.add_argument("--episodes", type=int, default=32, help="episodes per agent")
@@ -66,6 +66,17 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, Any]]:
         | ({"terminate_on_collision": True} if args.terminate_on_collision else {}),
         **kw,
     )
+    return args, cfg
+
+
+def suite_config(argv: list[str] | None = None) -> SuiteConfig:
+    """The :class:`SuiteConfig` of the command line ``argv``."""
+    return _arguments(argv)[1]
+
+
+def main(argv: list[str] | None = None) -> dict[str, dict[str, Any]]:
+    """Parse the arguments, run the suite, write the outputs; returns the summary."""
+    args, cfg = _arguments(argv)
     results = evaluate(args.agent, cfg, workers=args.workers, progress=not args.no_progress)
     summary = summarize(dict(results))
     rules = suite_rules(cfg)
