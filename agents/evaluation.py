@@ -12,8 +12,9 @@ the robot (:func:`agents.scripted.true_shortest_route`, on the ground-truth outl
 radius (the distance to the success region); SPL (Anderson et al., 2018) is
 ``mean(S_i * l_i / max(p_i, l_i))``.
 
-By default collisions do not end an episode in the suite (``terminate_on_collision=False``): the
-robot stops at the obstacle, the collision is counted, and the agent may recover. The collision
+The suite runs ``StereoNav-v1``: its rules (:func:`suite_rules`, written into every result by
+``evaluate.py``) let collisions not end an episode: the robot stops at the obstacle, the
+collision is counted, and the agent may recover. The collision
 rate is the fraction of episodes with at least one collision; ``mean_collisions`` is the number of
 steps that ended in a collision, per episode (it tells a graze from a robot that keeps hitting).
 
@@ -39,20 +40,25 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "CI_KEYS",
     "SUMMARY_KEYS",
     "EpisodeResult",
     "EpisodeSpec",
     "SuiteConfig",
+    "bootstrap_ci",
+    "env_config",
     "episode_records",
     "evaluate",
     "markdown_table",
     "plot_summary",
     "run_episode",
+    "suite_env_config",
     "suite_episodes",
+    "suite_rules",
     "summarize",
 ]
 
-ENV_ID = "StereoNav-v0"
+ENV_ID = "StereoNav-v1"
 SUMMARY_KEYS = (
     "episodes",
     "success_rate",
@@ -63,6 +69,34 @@ SUMMARY_KEYS = (
     "mean_looks",
     "mean_episode_time_s",
 )
+CI_KEYS = ("success_rate_ci", "spl_ci", "collision_rate_ci")
+"""The 95 % bootstrap intervals ``[lo, hi]`` of the summary (:func:`bootstrap_ci`)."""
+
+
+def bootstrap_ci(
+    values: Sequence[float], *, confidence: float = 0.95, resamples: int = 10_000, seed: int = 0
+) -> list[float]:
+    """The percentile bootstrap interval ``[lo, hi]`` of the mean of ``values``.
+
+    ``scipy.stats.bootstrap`` (percentile method) with a fixed seed: the same values give the same
+    interval. A constant sample (all successes, say) gives ``[v, v]``; an empty one ``[0, 0]``.
+    """
+    from scipy.stats import bootstrap
+
+    data = np.asarray(values, dtype=np.float64)
+    if data.size == 0:
+        return [0.0, 0.0]
+    if np.all(data == data[0]):
+        return [float(data[0]), float(data[0])]
+    res = bootstrap(
+        (data,),
+        np.mean,
+        confidence_level=confidence,
+        n_resamples=resamples,
+        method="percentile",
+        rng=np.random.default_rng(seed),
+    )
+    return [float(res.confidence_interval.low), float(res.confidence_interval.high)]
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -81,9 +115,7 @@ class SuiteConfig:
     seed: int = 0
     families: tuple[str, ...] = ("room", "corridor", "cluttered", "office")
     max_steps: int = 500
-    env_kwargs: dict[str, Any] = field(
-        default_factory=lambda: {"terminate_on_collision": False, "diagnostics": False}
-    )
+    env_kwargs: dict[str, Any] = field(default_factory=lambda: {"diagnostics": False})
 
     def __post_init__(self) -> None:
         from stereo_nav_env.scenes import FAMILIES
@@ -152,6 +184,32 @@ class EpisodeResult:
     reference_m: float
     spl: float
     time_s: float
+
+
+def env_config(env_id: str, **kwargs: Any) -> Any:
+    """The ``EnvConfig`` that ``gym.make(env_id, **kwargs)`` builds (its registered keywords
+    first), without building the env: training and evaluation compare theirs with it."""
+    import gymnasium as gym
+
+    import stereo_nav_env  # noqa: F401  (registers the ids)
+    from stereo_nav_env.config import EnvConfig
+
+    return EnvConfig.from_kwargs(**{**gym.spec(env_id).kwargs, **kwargs})
+
+
+def suite_env_config(cfg: SuiteConfig, family: str) -> Any:
+    """The ``EnvConfig`` of the suite's episodes of ``family``."""
+    return env_config(ENV_ID, **cfg.env_kwargs, scenario=family)
+
+
+def suite_rules(cfg: SuiteConfig) -> dict[str, Any]:
+    """The episode rules the suite runs under (``EnvConfig.rules_dict()`` of its env, the env id
+    and the step limit): what every result records."""
+    return {
+        "env_id": ENV_ID,
+        **suite_env_config(cfg, cfg.families[0]).rules_dict(),
+        "max_episode_steps": cfg.max_steps,
+    }
 
 
 def suite_episodes(cfg: SuiteConfig) -> list[EpisodeSpec]:
@@ -296,9 +354,10 @@ def _record(out: dict[str, list[EpisodeResult]], result: EpisodeResult, bar: Any
     )
 
 
-def summarize(results: Mapping[str, Iterable[EpisodeResult]]) -> dict[str, dict[str, float | int]]:
-    """The JSON figures of ARCHITECTURE.md for each agent (keys :data:`SUMMARY_KEYS`)."""
-    summary: dict[str, dict[str, float | int]] = {}
+def summarize(results: Mapping[str, Iterable[EpisodeResult]]) -> dict[str, dict[str, Any]]:
+    """The JSON figures of ARCHITECTURE.md for each agent (keys :data:`SUMMARY_KEYS`, then the
+    95 % bootstrap intervals :data:`CI_KEYS`)."""
+    summary: dict[str, dict[str, Any]] = {}
     for name, episodes in results.items():
         eps = list(episodes)
         n = len(eps)
@@ -315,6 +374,9 @@ def summarize(results: Mapping[str, Iterable[EpisodeResult]]) -> dict[str, dict[
             "mean_steps": mean([float(e.steps) for e in eps]),
             "mean_looks": mean([float(e.looks) for e in eps]),
             "mean_episode_time_s": mean([e.time_s for e in eps]),
+            "success_rate_ci": bootstrap_ci([float(e.success) for e in eps]),
+            "spl_ci": bootstrap_ci([e.spl for e in eps]),
+            "collision_rate_ci": bootstrap_ci([float(e.collided) for e in eps]),
         }
     return summary
 
@@ -324,15 +386,23 @@ def episode_records(results: Mapping[str, Iterable[EpisodeResult]]) -> list[dict
     return [dataclasses.asdict(e) for eps in results.values() for e in eps]
 
 
-def markdown_table(summary: dict[str, dict[str, float | int]]) -> str:
-    """A Markdown table of the summary, one row per agent."""
+def _with_ci(s: Mapping[str, Any], key: str, digits: int) -> str:
+    """``value [lo, hi]`` of a summary figure and its interval (the value alone without one)."""
+    text = f"{float(s[key]):.{digits}f}"
+    ci = s.get(f"{key}_ci")
+    return text if ci is None else f"{text} [{ci[0]:.{digits}f}, {ci[1]:.{digits}f}]"
+
+
+def markdown_table(summary: Mapping[str, Mapping[str, Any]]) -> str:
+    """A Markdown table of the summary, one row per agent (rates with their 95 % intervals)."""
     header = (
         "| agent | episodes | success | collision | collisions / episode | SPL | mean steps | "
         "mean looks | mean episode time (s) |\n|---|---|---|---|---|---|---|---|---|\n"
     )
     rows = [
-        f"| {name} | {s['episodes']} | {s['success_rate']:.2f} | {s['collision_rate']:.2f} | "
-        f"{s['mean_collisions']:.2f} | {s['spl']:.3f} | {s['mean_steps']:.1f} | "
+        f"| {name} | {s['episodes']} | {_with_ci(s, 'success_rate', 2)} | "
+        f"{_with_ci(s, 'collision_rate', 2)} | "
+        f"{s['mean_collisions']:.2f} | {_with_ci(s, 'spl', 3)} | {s['mean_steps']:.1f} | "
         f"{s['mean_looks']:.1f} | {s['mean_episode_time_s']:.1f} |"
         for name, s in summary.items()
     ]
@@ -340,7 +410,7 @@ def markdown_table(summary: dict[str, dict[str, float | int]]) -> str:
 
 
 def plot_summary(
-    summary: dict[str, dict[str, float | int]], path: str | pathlib.Path
+    summary: Mapping[str, Mapping[str, Any]], path: str | pathlib.Path
 ) -> pathlib.Path:
     """Bar plot of success rate, collision rate and SPL per agent, written to ``path``."""
     import matplotlib

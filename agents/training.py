@@ -1,4 +1,6 @@
-"""PPO training on ``StereoNav-v0`` with stable-baselines3 (what ``scripts/train.py`` runs).
+"""PPO training on ``StereoNav-v1`` with stable-baselines3 (what ``scripts/train.py`` runs).
+
+The training envs run under the rules of the evaluation suite (``StereoNav-v1``).
 
 :func:`train_ppo` trains a ``MultiInputPolicy`` (the observation is a ``Dict``) on ``n_envs``
 environments in subprocesses (``SubprocVecEnv`` with the ``forkserver`` start method by default,
@@ -12,6 +14,8 @@ safe with the EGL renderer; one environment runs in-process), with
 * the learning curve: every finished training episode in ``OUT/curve.csv`` (timesteps, return,
   length, success) and ``OUT/learning_curve.png`` (rolling return and success rate, evaluation
   returns),
+* the episode rules ``OUT/rules.json`` (:meth:`TrainConfig.env_config`'s ``rules_dict()``,
+  the env id and the step limit),
 * the final model ``OUT/ppo_final.zip`` (load it with ``make_agent("ppo:OUT/ppo_final.zip")``).
 
 ``resume`` continues from a saved checkpoint (its timestep counter too).
@@ -32,7 +36,7 @@ import numpy as np
 
 __all__ = ["TrainConfig", "TrainResult", "plot_learning_curve", "train_ppo"]
 
-ENV_ID = "StereoNav-v0"
+ENV_ID = "StereoNav-v1"
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -81,6 +85,13 @@ class TrainConfig:
     max_minutes: float | None = None
     progress: bool = True
     verbose: int = 0
+
+    def env_config(self) -> Any:
+        """The ``EnvConfig`` of the training envs (``gym.make(ENV_ID, **env_kwargs)``'s)."""
+        from agents.evaluation import env_config
+
+        kwargs = {k: v for k, v in self.env_kwargs.items() if k != "max_episode_steps"}
+        return env_config(ENV_ID, **kwargs)
 
     def __post_init__(self) -> None:
         for name in ("timesteps", "n_envs", "n_steps", "batch_size", "n_epochs"):
@@ -210,11 +221,17 @@ def _callbacks(cfg: TrainConfig, rows: list[dict[str, float]]) -> list[Any]:
 
 def train_ppo(cfg: TrainConfig) -> TrainResult:
     """Train (or resume) PPO as :class:`TrainConfig` says; see the module docstring for outputs."""
+    import json
+
+    import gymnasium as gym
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
 
     out = cfg.out_dir
     out.mkdir(parents=True, exist_ok=True)
+    steps = cfg.env_kwargs.get("max_episode_steps", gym.spec(ENV_ID).max_episode_steps)
+    rules = {"env_id": ENV_ID, **cfg.env_config().rules_dict(), "max_episode_steps": steps}
+    (out / "rules.json").write_text(json.dumps(rules, indent=2) + "\n")
     env = _vec_env(cfg, cfg.n_envs, cfg.seed)
     eval_env = None
     rows: list[dict[str, float]] = []
@@ -362,7 +379,7 @@ def plot_learning_curve(
         ax.grid(alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=8)
-    fig.suptitle("PPO on StereoNav-v0")
+    fig.suptitle(f"PPO on {ENV_ID}")
     fig.tight_layout()
     out_png.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out_png, dpi=100)

@@ -1,8 +1,12 @@
 """Evaluate agents on the fixed, seeded scene suite; write JSON, Markdown and a bar plot.
 
     python scripts/evaluate.py --agent NAME [--agent NAME ...] --episodes N --seed S --json FILE
-        [--markdown FILE] [--plot FILE] [--details FILE] [--families F [F ...]]
-        [--max-steps N] [--workers K] [--terminate-on-collision] [--perception P]
+        [--markdown FILE] [--plot FILE] [--details FILE] [--scenario FAMILY]
+        [--families F [F ...]] [--max-steps N] [--workers K] [--terminate-on-collision]
+        [--perception P]
+
+The suite runs under the StereoNav-v1 rules; each agent's JSON entry records them ("rules") and
+carries 95 % bootstrap intervals of its rates (keys ending in "_ci").
 
 Agent names: random, greedy, cautious, planner, oracle, ppo:PATH. The logic is in
 :mod:`agents.evaluation`.
@@ -14,6 +18,7 @@ import argparse
 import json
 import os
 import pathlib
+from typing import Any
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
@@ -23,12 +28,13 @@ from agents.evaluation import (
     evaluate,
     markdown_table,
     plot_summary,
+    suite_rules,
     summarize,
 )
 
 
-def main(argv: list[str] | None = None) -> dict[str, dict[str, float | int]]:
-    """Parse the arguments, run the suite, write the outputs; returns the summary."""
+def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]:
+    """The parsed command line and its suite."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--agent", action="append", required=True, help="agent name (repeat)")
     parser.add_argument("--episodes", type=int, default=32, help="episodes per agent")
@@ -37,8 +43,9 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float | int]]:
     parser.add_argument("--markdown", type=pathlib.Path, help="Markdown table file")
     parser.add_argument("--plot", type=pathlib.Path, help="bar plot (PNG)")
     parser.add_argument("--details", type=pathlib.Path, help="per-episode JSON file")
+    parser.add_argument("--scenario", default=None, help="run the suite on this family only")
     parser.add_argument(
-        "--families", nargs="+", default=None, help="scene families (default: all four)"
+        "--families", nargs="+", default=None, help="scene families (default: the standard four)"
     )
     parser.add_argument("--max-steps", type=int, default=500, help="steps at most per episode")
     parser.add_argument("--workers", type=int, default=1, help="parallel processes")
@@ -56,20 +63,32 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float | int]]:
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
 
-    kw = {} if args.families is None else {"families": tuple(args.families)}
+    families = [args.scenario] if args.scenario is not None else args.families
+    kw = {} if families is None else {"families": tuple(families)}
     cfg = SuiteConfig(
         episodes=args.episodes,
         seed=args.seed,
         max_steps=args.max_steps,
-        env_kwargs={
-            "terminate_on_collision": bool(args.terminate_on_collision),
-            "diagnostics": False,
-            "perception": args.perception,
-        },
+        env_kwargs={"diagnostics": False, "perception": args.perception}
+        | ({"terminate_on_collision": True} if args.terminate_on_collision else {}),
         **kw,
     )
+    return args, cfg
+
+
+def suite_config(argv: list[str] | None = None) -> SuiteConfig:
+    """The :class:`SuiteConfig` of the command line ``argv``."""
+    return _arguments(argv)[1]
+
+
+def main(argv: list[str] | None = None) -> dict[str, dict[str, Any]]:
+    """Parse the arguments, run the suite, write the outputs; returns the summary."""
+    args, cfg = _arguments(argv)
     results = evaluate(args.agent, cfg, workers=args.workers, progress=not args.no_progress)
     summary = summarize(dict(results))
+    rules = suite_rules(cfg)
+    for figures in summary.values():
+        figures["rules"] = rules
     args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps(summary, indent=2) + "\n")
     table = markdown_table(summary)

@@ -1,11 +1,12 @@
-"""Train PPO (stable-baselines3, MultiInputPolicy) on StereoNav-v0.
+"""Train PPO (stable-baselines3, MultiInputPolicy) on StereoNav-v1.
 
     python scripts/train.py --timesteps N [--n-envs K] --out DIR [--resume CHECKPOINT]
         [--eval-freq N] [--checkpoint-freq N] [--seed S] [--scenario NAME] [--n-steps N]
         [--batch-size N] [--max-minutes M]
 
 Writes DIR/ppo_final.zip, DIR/checkpoints/, DIR/best/, DIR/eval/, DIR/tb/ (TensorBoard),
-DIR/curve.csv and DIR/learning_curve.png. The logic is in :mod:`agents.training`.
+DIR/curve.csv, DIR/learning_curve.png and DIR/rules.json (the episode rules, those of
+evaluate.py). The logic is in :mod:`agents.training`.
 """
 
 from __future__ import annotations
@@ -19,8 +20,8 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 from agents.training import TrainConfig, TrainResult, train_ppo
 
 
-def main(argv: list[str] | None = None) -> TrainResult:
-    """Parse the arguments and train; returns what was written."""
+def train_config(argv: list[str] | None = None) -> TrainConfig:
+    """The :class:`TrainConfig` of the command line ``argv``."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--timesteps", type=int, required=True, help="environment steps")
     parser.add_argument("--n-envs", type=int, default=1, help="parallel environments")
@@ -40,23 +41,26 @@ def main(argv: list[str] | None = None) -> TrainResult:
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
-    result = train_ppo(
-        TrainConfig(
-            timesteps=args.timesteps,
-            n_envs=args.n_envs,
-            out_dir=args.out,
-            resume=args.resume,
-            eval_freq=args.eval_freq,
-            eval_episodes=args.eval_episodes,
-            checkpoint_freq=args.checkpoint_freq,
-            seed=args.seed,
-            n_steps=args.n_steps,
-            batch_size=args.batch_size,
-            env_kwargs={"scenario": args.scenario, "diagnostics": False},
-            max_minutes=args.max_minutes,
-            progress=not args.no_progress,
-        )
+    return TrainConfig(
+        timesteps=args.timesteps,
+        n_envs=args.n_envs,
+        out_dir=args.out,
+        resume=args.resume,
+        eval_freq=args.eval_freq,
+        eval_episodes=args.eval_episodes,
+        checkpoint_freq=args.checkpoint_freq,
+        seed=args.seed,
+        n_steps=args.n_steps,
+        batch_size=args.batch_size,
+        env_kwargs={"scenario": args.scenario, "diagnostics": False},
+        max_minutes=args.max_minutes,
+        progress=not args.no_progress,
     )
+
+
+def main(argv: list[str] | None = None) -> TrainResult:
+    """Parse the arguments and train; returns what was written."""
+    result = train_ppo(train_config(argv))
     print(f"model: {result.model_path} ({result.timesteps} timesteps, {result.episodes} episodes)")
     print(f"learning curve: {result.curve_png}")
     return result

@@ -3,19 +3,22 @@
 ``StereoNav-v0``: continuous ``Box(-1, 1, (3,))`` actions (forward speed, turn rate, head pan
 target); ``StereoNavDiscrete-v0``: ``Discrete(11)`` move-and-look macro actions. Both observe the
 model of the stereo pair (situations, critical regions, a top-down raster); see
-:class:`stereo_nav_env.env.StereoNavEnv`.
+:class:`stereo_nav_env.env.StereoNavEnv`. ``StereoNav-v1`` and ``StereoNavDiscrete-v1`` are the
+same environments under the v1 episode rules (``rules="v1"``: collisions do not end an episode;
+:data:`stereo_nav_env.config.RULES`).
 """
 
 from gymnasium.envs.registration import register
 
-register(
-    id="StereoNav-v0",
-    entry_point="stereo_nav_env.env:StereoNavEnv",
-    max_episode_steps=500,
-)
-
-register(
-    id="StereoNavDiscrete-v0",
-    entry_point="stereo_nav_env.env:StereoNavDiscreteEnv",
-    max_episode_steps=500,
-)
+for _name, _entry in (("StereoNav", "StereoNavEnv"), ("StereoNavDiscrete", "StereoNavDiscreteEnv")):
+    register(
+        id=f"{_name}-v0",
+        entry_point=f"stereo_nav_env.env:{_entry}",
+        max_episode_steps=500,
+    )
+    register(
+        id=f"{_name}-v1",
+        entry_point=f"stereo_nav_env.env:{_entry}",
+        max_episode_steps=500,
+        kwargs={"rules": "v1"},
+    )

@@ -8,6 +8,13 @@
 * ``rewards``: :class:`RewardConfig` (the reward weights),
 * and on :class:`EnvConfig` itself the scenario, the episode's end and the model's settings.
 
+The *episode rules* (what ends an episode and what it pays) are named presets in :data:`RULES`:
+``"v0"`` (the dataclass defaults: a collision ends the episode and costs 10) and ``"v1"``
+(collisions do not end an episode, 0.1 per contact step; Habitat PointNav's convention).
+``EnvConfig.from_kwargs(rules="v1", ...)`` starts from a preset (the registered ``-v1`` ids pass
+it); :meth:`EnvConfig.rules_dict` returns the rules in force as a plain dict, for every result
+to record.
+
 ``gym.make("StereoNav-v0", **kwargs)`` takes flat keywords: each names a field anywhere in that
 tree (the names are unique across it), or a whole sub-configuration (``world=``, ``camera=``,
 ``observation=``, ``rewards=``: an instance or a dict of its fields, which flat keywords
@@ -32,6 +39,8 @@ __all__ = [
     "OBSERVATION_MODES",
     "PERCEPTIONS",
     "REGION_FEATURES",
+    "RULES",
+    "RULE_FIELDS",
     "CameraConfig",
     "EnvConfig",
     "ObservationConfig",
@@ -74,6 +83,37 @@ REGION_FEATURES = (
     "radius_m",
 )
 """Names of the F columns of ``obs["critical_regions"]`` (see :mod:`stereo_nav_env.observation`)."""
+
+
+RULES: dict[str, dict[str, Any]] = {
+    "v0": {
+        "terminate_on_collision": True,
+        "goal_radius_m": 0.3,
+        "goal_reward": 10.0,
+        "collision_penalty": 10.0,
+        "time_penalty": 0.01,
+        "progress_weight": 1.0,
+        "stuck_steps": 0,
+        "stuck_progress_m": 0.5,
+    },
+    "v1": {
+        "terminate_on_collision": False,
+        "goal_radius_m": 0.3,
+        "goal_reward": 10.0,
+        "collision_penalty": 0.1,
+        "time_penalty": 0.01,
+        "progress_weight": 1.0,
+        "stuck_steps": 0,
+        "stuck_progress_m": 0.5,
+    },
+}
+"""The episode-rule presets by name: flat :class:`EnvConfig` keywords (``"v0"`` equals the
+dataclass defaults; ``"v1"``: collisions do not end an episode and cost 0.1 a contact step)."""
+
+RULE_FIELDS = tuple(RULES["v0"])
+"""The fields that make up the episode rules (:meth:`EnvConfig.rules_dict`)."""
+
+_REWARD_RULES = ("goal_reward", "collision_penalty", "time_penalty", "progress_weight")
 
 
 def _instance(value: object, name: str, cls: type) -> None:
@@ -229,6 +269,10 @@ class EnvConfig:
             from the env's generator at every reset) or ``"random"`` (a random family too).
         goal_radius_m: The episode succeeds when the robot's centre is this close to the goal.
         terminate_on_collision: Whether a collision ends the episode.
+        stuck_steps: Truncate the episode once this many steps in a row have not brought the
+            robot ``stuck_progress_m`` closer (geodesically) to the goal than where it last did
+            (0: never; :class:`~stereo_nav_env.rewards.StuckTimer`).
+        stuck_progress_m: The progress that resets the stuck count, metres.
         eps: Classification tolerance of the model (passable if ``p > 1 - eps``, impassable if
             ``p < eps``), in (0, 0.5).
         model_max_situations: Most situations the model enumerates (``info["model"]``).
@@ -248,6 +292,8 @@ class EnvConfig:
     scenario: str = "default"
     goal_radius_m: float = 0.3
     terminate_on_collision: bool = True
+    stuck_steps: int = 0
+    stuck_progress_m: float = 0.5
     eps: float = 0.05
     model_max_situations: int = 64
     close_faces: bool = True
@@ -270,6 +316,8 @@ class EnvConfig:
         number(self.eps, "eps", low=0.0, high=0.5)
         integer(self.model_max_situations, "model_max_situations", low=1)
         boolean(self.terminate_on_collision, "terminate_on_collision")
+        integer(self.stuck_steps, "stuck_steps", low=0)
+        number(self.stuck_progress_m, "stuck_progress_m", low=0.0)
         boolean(self.close_faces, "close_faces")
         boolean(self.diagnostics, "diagnostics")
         if self.perception not in PERCEPTIONS:
@@ -304,9 +352,37 @@ class EnvConfig:
 
         Each key is a field of :class:`EnvConfig` or of one of its sub-configurations
         (``world``, ``camera``, ``observation``, ``rewards``), or the name of a sub-configuration
-        given whole, as an instance or a dict of its fields (flat keys then override them).
+        given whole, as an instance or a dict of its fields (flat keys then override them). The
+        key ``rules`` names a preset of :data:`RULES` (default ``"v0"``) whose values stand
+        where the other keys do not set them (a whole ``rewards`` keeps its own weights).
 
         Raises:
             ValueError: An unknown key (named), or an invalid value (its field named).
         """
-        return from_flat(cls, kwargs, what="StereoNav")
+        given = dict(kwargs)
+        rules = given.pop("rules", "v0")
+        if not isinstance(rules, str) or rules not in RULES:
+            raise ValueError(f"rules must be one of {list(RULES)}, got {rules!r}")
+        preset = {
+            key: value
+            for key, value in RULES[rules].items()
+            if key not in given and not (key in _REWARD_RULES and "rewards" in given)
+        }
+        return from_flat(cls, {**preset, **given}, what="StereoNav")
+
+    def rules_dict(self) -> dict[str, Any]:
+        """The episode rules in force as a plain, JSON-friendly dict.
+
+        Returns:
+            ``{"preset": name, **values}``: the values of :data:`RULE_FIELDS` (the reward weights
+            read from ``rewards``) and the name of the :data:`RULES` preset they equal
+            (``"custom"`` when none).
+        """
+        values: dict[str, Any] = {
+            key: getattr(self.rewards if key in _REWARD_RULES else self, key) for key in RULE_FIELDS
+        }
+        preset = next(
+            (name for name, rule in RULES.items() if rule == values),
+            "custom",
+        )
+        return {"preset": preset, **values}

@@ -39,7 +39,7 @@ from stereo_nav_env.perception import (
     perceive,
 )
 from stereo_nav_env.render import StereoRenderer
-from stereo_nav_env.rewards import reward_components
+from stereo_nav_env.rewards import StuckTimer, reward_components
 from stereo_nav_env.scenes import Scene, load_scenario
 from stereo_nav_env.surrogate import perceive_surrogate
 from stereo_nav_env.surrogate_visibility import SceneEdges
@@ -196,8 +196,9 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     ## Rewards
     The sum of the named components in ``info["reward_components"]`` (weights in
     :class:`~stereo_nav_env.config.RewardConfig`): ``goal`` (+10 on reaching the goal),
-    ``collision`` (-10 in a step with a contact), ``time`` (-0.01 every step), ``progress`` (1 x
-    the decrease of the geodesic distance to the goal through the true free space, metres).
+    ``collision`` (-10 in a step with a contact under the v0 rules, -0.1 under v1), ``time``
+    (-0.01 every step), ``progress`` (1 x the decrease of the geodesic distance to the goal
+    through the true free space, metres). The rules in force: ``config.rules_dict()``.
 
     ## Starting State
     The scene's start pose, head pan 0, at rest. Maps are fixed; generator families draw a new scene
@@ -205,9 +206,11 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
 
     ## Episode End
     Terminated when the robot's centre is within ``goal_radius_m`` (0.3 m) of the goal
-    (``info["is_success"]``), or when it touches an obstacle (``info["collision"]``; unless
-    ``terminate_on_collision=False``). Truncated by the ``TimeLimit`` wrapper after
-    ``max_episode_steps`` (500 steps, 50 s).
+    (``info["is_success"]``), or, under the v0 rules, when it touches an obstacle
+    (``info["collision"]``; ``terminate_on_collision``, False under v1: the robot stops at the
+    obstacle and may recover). Truncated by the ``TimeLimit`` wrapper after
+    ``max_episode_steps`` (500 steps, 50 s), and when stuck: ``stuck_steps`` steps (0 = never,
+    the default) without ``stuck_progress_m`` of geodesic progress.
 
     ## Info
     ``model`` (:class:`~modeling.model.EnvironmentModel` of the latest pair, compared by content),
@@ -244,6 +247,9 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
       A first v0 of issue 2 observed only the goal and the head pan. Issue 16 added the fused
       model (``info["memory_model"]``, the ``"memory"`` and ``"model_memory"`` observation modes,
       the ``memory_*`` diagnostics); the default mode's spaces are unchanged.
+    * v1: the episode rules of issue 18 (``rules="v1"``, :data:`~stereo_nav_env.config.RULES`):
+      collisions do not end an episode and cost 0.1 per contact step; optional truncation when
+      stuck. Observation and actions as v0.
     """
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 10}  # noqa: RUF012
@@ -287,6 +293,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self._view: tuple[MapView, UInt8Image] | None = None
         self._steps = 0
         self._return = 0.0
+        self._stuck = StuckTimer(window_steps=0, progress_m=1.0, reference_m=math.inf)
 
     # ------------------------------------------------------------------ actions
     def _make_action_space(self) -> spaces.Space[Any]:
@@ -521,7 +528,11 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         watch.lap("physics")
         obs = self._observe(watch)
         assert self._geodesic is not None
-        info = self._info(watch, geodesic_m=self._geodesic(self.robot_pose[:2]))
+        geodesic_m = self._geodesic(self.robot_pose[:2])
+        self._stuck = StuckTimer(
+            window_steps=cfg.stuck_steps, progress_m=cfg.stuck_progress_m, reference_m=geodesic_m
+        )
+        info = self._info(watch, geodesic_m=geodesic_m)
         self.last_timings_ms = watch.laps
         return obs, info
 
@@ -557,10 +568,11 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         info = self._info(watch, geodesic_m=after)
         info.update(is_success=reached, collision=result.collided, reward_components=components)
         terminated = bool(reached or (result.collided and cfg.terminate_on_collision))
+        truncated = self._stuck.update(after) and not terminated
         self._steps += 1
         self._return += reward
         self.last_timings_ms = watch.laps
-        return obs, reward, terminated, False, info
+        return obs, reward, terminated, truncated, info
 
     def render(self) -> UInt8Image | None:
         """``rgb_array``: a 480 x 960 RGB frame (world from above, model overlay, left image)."""

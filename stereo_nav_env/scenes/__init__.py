@@ -15,7 +15,14 @@ goal. The package has one module per concept:
 Every public name is importable from here: ``from stereo_nav_env.scenes import Scene``.
 """
 
-from stereo_nav_env.scenes.generator import BOX_PALETTE, FAMILIES, WALL_THICKNESS_M, generate_scene
+from stereo_nav_env.scenes.generator import (
+    BOX_PALETTE,
+    CURRICULUM_FAMILIES,
+    FAMILIES,
+    STANDARD_FAMILIES,
+    WALL_THICKNESS_M,
+    generate_scene,
+)
 from stereo_nav_env.scenes.map_io import (
     MAP_FORMAT,
     MAP_LIMITS,
@@ -43,6 +50,7 @@ from stereo_nav_env.scenes.types import (
 
 __all__ = [
     "BOX_PALETTE",
+    "CURRICULUM_FAMILIES",
     "DEFAULT_COLOR",
     "DEFAULT_HEIGHT_M",
     "DEFAULT_MARGIN_M",
@@ -50,6 +58,7 @@ __all__ = [
     "MAPS_DIR",
     "MAP_FORMAT",
     "MAP_LIMITS",
+    "STANDARD_FAMILIES",
     "WALL_THICKNESS_M",
     "BoxPart",
     "Gap",

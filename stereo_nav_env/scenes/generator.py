@@ -1,9 +1,12 @@
-"""The seeded scene generator: four families of indoor layouts with doubtful gaps.
+"""The seeded scene generator: six families of indoor layouts, easiest first.
 
-Generated scenes always have walls around their bounds, at least two doubtful gaps (width within
-30 % of the robot width) and a route from start to goal that the robot fits through. Each family
-is a layout function that places obstacles with a :class:`_Builder` (no overlaps, a keep-out
-around start and goal); :func:`generate_scene` retries layouts until the guarantees hold.
+Generated scenes always have walls around their bounds and a route from start to goal that the
+robot fits through. The four standard families (:data:`STANDARD_FAMILIES`: room, corridor,
+cluttered, office) have at least two doubtful gaps (width within 30 % of the robot width); the
+two curriculum families before them need none: ``open`` (the room's walls only, the goal 1.5-4 m
+away) and ``sparse`` (1-3 obstacles, the goal 2-5 m away), both with a random start heading. Each
+family is a layout function that places obstacles with a :class:`_Builder` (no overlaps, a
+keep-out around start and goal); :func:`generate_scene` retries layouts until the guarantees hold.
 """
 
 from __future__ import annotations
@@ -20,12 +23,25 @@ from modeling.validation import positive
 from stereo_nav_env.scenes.parts import make_obstacle, oriented_rect
 from stereo_nav_env.scenes.types import DEFAULT_MARGIN_M, Color, Obstacle, ObstacleKind, Scene
 
-__all__ = ["BOX_PALETTE", "FAMILIES", "WALL_THICKNESS_M", "generate_scene"]
+__all__ = [
+    "BOX_PALETTE",
+    "CURRICULUM_FAMILIES",
+    "FAMILIES",
+    "STANDARD_FAMILIES",
+    "WALL_THICKNESS_M",
+    "generate_scene",
+]
 
 FloatArray = NDArray[np.float64]
 
-FAMILIES = ("room", "corridor", "cluttered", "office")
-"""The generator's families (see :func:`generate_scene`)."""
+STANDARD_FAMILIES = ("room", "corridor", "cluttered", "office")
+"""The families with doubtful gaps (``"random"`` draws among these)."""
+CURRICULUM_FAMILIES = ("open", "sparse")
+"""The easy families a curriculum starts with."""
+FAMILIES = (*CURRICULUM_FAMILIES, *STANDARD_FAMILIES)
+"""The generator's families, easiest first (see :func:`generate_scene`)."""
+_FAMILY_STREAM = {"room": 0, "corridor": 1, "cluttered": 2, "office": 3, "open": 4, "sparse": 5}
+"""Each family's random stream (the standard ones keep the indices they always had)."""
 WALL_THICKNESS_M = 0.1
 BOX_PALETTE: tuple[Color, ...] = (
     (0.70, 0.52, 0.30),
@@ -255,12 +271,69 @@ def _layout_office(b: _Builder, W: float, H: float) -> None:
     b.scatter([ObstacleKind.CHAIR, ObstacleKind.TABLE, ObstacleKind.BOX], int(rng.integers(2, 5)))
 
 
+def _layout_open(b: _Builder, W: float, H: float) -> None:
+    """The room's walls only."""
+
+
+def _layout_sparse(b: _Builder, W: float, H: float) -> None:
+    """1-3 obstacles: the first near the middle of the straight line to the goal, if it fits."""
+    rng = b.rng
+    count = int(rng.integers(1, 4))
+    kinds = [ObstacleKind.BOX, ObstacleKind.CHAIR, ObstacleKind.TABLE, ObstacleKind.BOOKSHELF]
+    start, goal = (np.asarray(k.centroid.coords[0]) for k in b.keepout)
+    for _ in range(20):
+        kind = kinds[int(rng.integers(len(kinds)))]
+        centre = (start + goal) / 2 + rng.normal(0.0, 0.4, 2)
+        if b.add(kind, b.furniture(kind, centre, float(rng.uniform(-np.pi, np.pi)))):
+            count -= 1
+            break
+    b.scatter(kinds, count)
+
+
 _LAYOUTS = {
+    "open": (_layout_open, (5.0, 7.0), (4.5, 6.0)),
+    "sparse": (_layout_sparse, (6.0, 8.0), (5.0, 6.5)),
     "room": (_layout_room, (8.0, 10.0), (5.5, 7.0)),
     "corridor": (_layout_corridor, (10.0, 13.0), (2.6, 3.2)),
     "cluttered": (_layout_cluttered, (7.0, 9.0), (6.0, 7.5)),
     "office": (_layout_office, (9.0, 11.0), (6.0, 7.0)),
 }
+
+
+_FAMILY_DEFAULTS: dict[str, tuple[int, tuple[float, float] | None, bool]] = {
+    "open": (0, (1.5, 4.0), True),
+    "sparse": (0, (2.0, 5.0), True),
+}
+"""Per family: (min_doubtful_gaps, goal_distance_m, random_heading); else (2, None, False)."""
+
+
+def _goal_range(value: Any) -> tuple[float, float] | None:
+    """``goal_distance_m`` checked: None or ``(low, high)`` metres with 0 < low <= high."""
+    if value is None:
+        return None
+    try:
+        lo, hi = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise ValueError(f"goal_distance_m must be None or (low, high), got {value!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 < lo <= hi):
+        raise ValueError(f"goal_distance_m must satisfy 0 < low <= high, got {value!r}")
+    return lo, hi
+
+
+def _start_and_goal(
+    rng: np.random.Generator, W: float, H: float, goal_range: tuple[float, float]
+) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    """A start anywhere 0.8 m inside the walls and a goal ``goal_range`` metres from it (straight
+    line) as far inside, or None when 100 draws found none."""
+    m = min(0.8, 0.3 * H, 0.3 * W)
+    for _ in range(100):
+        start = rng.uniform([m, m], [W - m, H - m])
+        distance = rng.uniform(*goal_range)
+        angle = rng.uniform(-np.pi, np.pi)
+        goal = start + distance * np.array([math.cos(angle), math.sin(angle)])
+        if m <= goal[0] <= W - m and m <= goal[1] <= H - m:
+            return (float(start[0]), float(start[1])), (float(goal[0]), float(goal[1]))
+    return None
 
 
 def generate_scene(
@@ -269,24 +342,35 @@ def generate_scene(
     family: str = "room",
     robot_width_m: float = 0.5,
     margin_m: float = DEFAULT_MARGIN_M,
-    min_doubtful_gaps: int = 2,
+    min_doubtful_gaps: int | None = None,
+    goal_distance_m: tuple[float, float] | None = None,
+    random_heading: bool | None = None,
     max_attempts: int = 200,
 ) -> Scene:
     """A random indoor scene, deterministic in ``seed``.
 
-    Every scene has walls around its bounds, furniture of the family's style, a start on the left
-    looking roughly towards +x and a goal on the right, both free and joined by a route a disc of
-    diameter ``robot_width_m`` fits through with ``margin_m`` to spare on each side, and at least
-    ``min_doubtful_gaps`` gaps whose width is within 30 % of ``robot_width_m``.
+    Every scene has walls around its bounds, furniture of the family's style, a start and a goal,
+    both free and joined by a route a disc of diameter ``robot_width_m`` fits through with
+    ``margin_m`` to spare on each side, and at least ``min_doubtful_gaps`` gaps whose width is
+    within 30 % of ``robot_width_m``. By default the start of a standard family is on the left
+    looking roughly towards the goal on the right; with ``goal_distance_m`` the start is anywhere
+    and the goal that far from it.
 
     Args:
         seed: Non-negative integer seed.
-        family: One of :data:`FAMILIES`: ``"room"`` (a bookshelf gate in view, a table, chairs,
-            boxes), ``"corridor"`` (a long corridor narrowed by boxes and shelves), ``"cluttered"``
-            (many boxes and chairs) or ``"office"`` (a partition wall with two doorways).
+        family: One of :data:`FAMILIES`: ``"open"`` (walls only), ``"sparse"`` (1-3 pieces of
+            furniture), ``"room"`` (a bookshelf gate in view, a table, chairs, boxes),
+            ``"corridor"`` (a long corridor narrowed by boxes and shelves), ``"cluttered"`` (many
+            boxes and chairs) or ``"office"`` (a partition wall with two doorways).
         robot_width_m: Robot diameter, metres (0.1 to 1.5).
         margin_m: Clearance kept on each side of the robot along the route, metres.
-        min_doubtful_gaps: Minimum number of doubtful gaps.
+        min_doubtful_gaps: Minimum number of doubtful gaps (None: 0 for ``open`` and
+            ``sparse``, 2 for the others).
+        goal_distance_m: ``(low, high)``: the straight-line distance from start to goal, metres,
+            drawn uniformly (None: the family's default, (1.5, 4) for ``open``, (2, 5) for
+            ``sparse``, the left-to-right layout for the others).
+        random_heading: Start heading uniform in [-pi, pi) instead of towards the goal (None:
+            True for ``open`` and ``sparse``).
         max_attempts: Layouts tried before giving up.
 
     Returns:
@@ -304,27 +388,48 @@ def generate_scene(
     if not 0.1 <= w <= 1.5:
         raise ValueError(f"robot_width_m must be in [0.1, 1.5], got {robot_width_m!r}")
     margin_m = positive(margin_m, "margin_m", allow_zero=True)
-    if not isinstance(min_doubtful_gaps, int) or min_doubtful_gaps < 0:
+    default_gaps, default_goal, default_heading = _FAMILY_DEFAULTS.get(family, (2, None, False))
+    min_doubtful_gaps = default_gaps if min_doubtful_gaps is None else min_doubtful_gaps
+    if (
+        isinstance(min_doubtful_gaps, bool)
+        or not isinstance(min_doubtful_gaps, int)
+        or min_doubtful_gaps < 0
+    ):
         raise ValueError(
             f"min_doubtful_gaps must be a non-negative integer, got {min_doubtful_gaps!r}"
         )
+    goal_range = _goal_range(default_goal if goal_distance_m is None else goal_distance_m)
+    random_heading = default_heading if random_heading is None else random_heading
+    if not isinstance(random_heading, bool):
+        raise ValueError(f"random_heading must be None, True or False, got {random_heading!r}")
     if not isinstance(max_attempts, int) or max_attempts < 1:
         raise ValueError(f"max_attempts must be a positive integer, got {max_attempts!r}")
     layout, w_range, h_range = _LAYOUTS[family]
-    rng = np.random.default_rng([int(seed), FAMILIES.index(family)])
+    rng = np.random.default_rng([int(seed), _FAMILY_STREAM[family]])
     scale = max(1.0, w / 0.5)
     for _ in range(max_attempts):
         W = float(rng.uniform(*w_range)) * scale
         H = float(rng.uniform(*h_range)) * scale
         bounds = (0.0, 0.0, W, H)
-        start = (float(rng.uniform(0.8, 1.4)), float(rng.uniform(0.35, 0.65) * H))
-        goal = (float(W - rng.uniform(0.8, 1.4)), float(rng.uniform(0.25, 0.75) * H))
-        heading = math.atan2(goal[1] - start[1], goal[0] - start[0]) + float(rng.normal(0, 0.1))
+        if goal_range is None:  # the standard layout (these draws make the scenes they always did)
+            start = (float(rng.uniform(0.8, 1.4)), float(rng.uniform(0.35, 0.65) * H))
+            goal = (float(W - rng.uniform(0.8, 1.4)), float(rng.uniform(0.25, 0.75) * H))
+        else:
+            pair = _start_and_goal(rng, W, H, goal_range)
+            if pair is None:
+                continue
+            start, goal = pair
+        if random_heading:
+            heading = float(rng.uniform(-np.pi, np.pi))
+        else:
+            heading = math.atan2(goal[1] - start[1], goal[0] - start[0]) + float(rng.normal(0, 0.1))
         b = _Builder(rng, bounds, w)
         b.walls()
         r = w / 2 + margin_m + 0.3
         b.keepout = [Point(*start).buffer(r), Point(*goal).buffer(r)]
         layout(b, W, H)
+        if family == "sparse" and all(ob.kind is ObstacleKind.WALL for ob in b.obstacles):
+            continue  # no furniture found room: not a sparse scene
         scene = Scene(
             name=f"{family}-{int(seed)}",
             bounds=bounds,

@@ -71,7 +71,7 @@ import numpy as np
 from shapely.geometry import Point
 
 from modeling.validation import positive
-from stereo_nav_env.scenes.generator import FAMILIES, generate_scene
+from stereo_nav_env.scenes.generator import FAMILIES, STANDARD_FAMILIES, generate_scene
 from stereo_nav_env.scenes.parts import build_parts, make_obstacle, oriented_rect
 from stereo_nav_env.scenes.types import (
     DEFAULT_COLOR,
@@ -334,7 +334,7 @@ def load_scenario(scenario: str, seed: int = 0, *, robot_width_m: float = 0.5) -
     Args:
         scenario: ``"default"`` or another bundled map name, a path ending in ``.json``, one of
             :data:`FAMILIES` (generated from ``seed``) or ``"random"`` (the family is drawn from
-            ``seed`` as well).
+            ``seed`` as well, among :data:`STANDARD_FAMILIES`).
         seed: Seed of generated scenes.
         robot_width_m: Robot width the generator guarantees a route for.
     """
@@ -345,7 +345,9 @@ def load_scenario(scenario: str, seed: int = 0, *, robot_width_m: float = 0.5) -
     if scenario in available_maps():
         return check_navigable(load_map(MAPS_DIR / f"{scenario}.json"), robot_width_m)
     if scenario == "random":
-        family = FAMILIES[int(np.random.default_rng(seed).integers(len(FAMILIES)))]
+        family = STANDARD_FAMILIES[
+            int(np.random.default_rng(seed).integers(len(STANDARD_FAMILIES)))
+        ]
         return generate_scene(seed, family=family, robot_width_m=robot_width_m)
     if scenario in FAMILIES:
         return generate_scene(seed, family=scenario, robot_width_m=robot_width_m)

@@ -7,6 +7,7 @@ import math
 import pytest
 
 from agents.evaluation import (
+    CI_KEYS,
     SUMMARY_KEYS,
     EpisodeResult,
     SuiteConfig,
@@ -74,8 +75,8 @@ def test_summary_table_and_plot(tmp_path) -> None:
     }
     summary = summarize(results)
     assert list(summary) == ["planner", "greedy"]
-    assert tuple(summary["planner"]) == SUMMARY_KEYS
-    assert summary["planner"] == {
+    assert tuple(summary["planner"]) == SUMMARY_KEYS + CI_KEYS
+    assert {k: summary["planner"][k] for k in SUMMARY_KEYS} == {
         "episodes": 2,
         "success_rate": 0.5,
         "collision_rate": 0.5,
@@ -92,6 +93,9 @@ def test_summary_table_and_plot(tmp_path) -> None:
     assert table[0].startswith(
         "| agent | episodes | success | collision | collisions / episode | SPL |"
     )
-    assert table[2] == "| planner | 2 | 0.50 | 0.50 | 1.50 | 0.400 | 105.0 | 0.5 | 2.0 |"
+    assert table[2] == (
+        "| planner | 2 | 0.50 [0.00, 1.00] | 0.50 [0.00, 1.00] | 1.50 | 0.400 [0.000, 0.800] | "
+        "105.0 | 0.5 | 2.0 |"
+    )
     png = plot_summary(summary, tmp_path / "bars.png")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

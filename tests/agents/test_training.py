@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import json
 
 import gymnasium as gym
 import numpy as np
@@ -45,6 +46,9 @@ def test_ppo_smoke_run_trains_saves_and_acts(tmp_path, small_map) -> None:
         )
     )
     assert result.model_path.is_file() and result.timesteps == 256
+    rules = json.loads((tmp_path / "ppo" / "rules.json").read_text())
+    assert rules["env_id"] == "StereoNav-v1" and rules["preset"] == "v1"
+    assert rules["max_episode_steps"] == 50 and rules["terminate_on_collision"] is False
     assert sorted(p.name for p in (tmp_path / "ppo" / "checkpoints").iterdir()) == [
         "ppo_128_steps.zip",
         "ppo_256_steps.zip",
@@ -57,7 +61,7 @@ def test_ppo_smoke_run_trains_saves_and_acts(tmp_path, small_map) -> None:
     assert len(rows) == result.episodes >= 256 // 50
     assert all(float(r["length"]) <= 50 for r in rows)
 
-    env = gym.make("StereoNav-v0", **kwargs)
+    env = gym.make("StereoNav-v1", **kwargs)
     obs, info = env.reset(seed=0)
     agent = make_agent(f"ppo:{result.model_path}", env)
     agent.reset(env, seed=0)

@@ -41,8 +41,12 @@ def test_evaluate_writes_json_markdown_plot_and_details(
     assert data == summary and list(data) == ["oracle", "random"]
     assert set(data["oracle"]) == {
         "episodes", "success_rate", "collision_rate", "mean_collisions", "spl", "mean_steps",
-        "mean_looks", "mean_episode_time_s",
+        "mean_looks", "mean_episode_time_s", "success_rate_ci", "spl_ci", "collision_rate_ci",
+        "rules",
     }  # fmt: skip
+    assert data["oracle"]["rules"]["preset"] == "v1" and data["oracle"]["rules"]["env_id"] == (
+        "StereoNav-v1"
+    )
     assert data["oracle"]["episodes"] == 2 and data["oracle"]["mean_steps"] == 15
     assert "| oracle | 2 |" in (tmp_path / "eval.md").read_text()
     assert (tmp_path / "eval.png").stat().st_size > 1000

@@ -105,6 +105,8 @@ def test_derived_values_are_properties() -> None:
         "scenario",
         "goal_radius_m",
         "terminate_on_collision",
+        "stuck_steps",
+        "stuck_progress_m",
         "eps",
         "model_max_situations",
         "close_faces",

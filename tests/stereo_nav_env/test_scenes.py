@@ -16,7 +16,7 @@ from shapely.ops import unary_union
 
 from modeling.rig import HeadPose, StereoRig
 from stereo_nav_env.scenes import (
-    FAMILIES,
+    STANDARD_FAMILIES,
     ObstacleKind,
     Scene,
     available_maps,
@@ -33,7 +33,7 @@ from stereo_nav_env.scenes import (
 W = 0.5  # robot width
 
 
-@pytest.mark.parametrize("family", FAMILIES)
+@pytest.mark.parametrize("family", STANDARD_FAMILIES)
 def test_generated_scenes_keep_their_guarantees(family: str) -> None:
     for seed in range(30):
         scene = generate_scene(seed, family=family, robot_width_m=W)
