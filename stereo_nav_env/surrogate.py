@@ -173,7 +173,7 @@ def surrogate_segments(
     group = vis.group[found]
     rows = np.floor(v1 - v0) + 1.0
     s_vv = rows * (rows * rows - 1.0) / 12.0
-    point_var = np.full(n, opts.sigma_px**2)
+    point_var = np.full(n, rig.sigma_px**2)
     bias_var = np.full(n, opts.bias_sigma_px**2)
     # the fitted line's errors, left and right image: offset, slope, common bias
     draw = rng.standard_normal((2, 3, n)) * rates.error_scale
