@@ -19,7 +19,7 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from modeling.memory import MemoryOptions, ModelMemory, add_contact, build_memory_model, fuse
+from modeling.memory import ModelMemory
 from modeling.model import EnvironmentModel
 from modeling.pipeline import to_gray
 from modeling.rig import HeadPose, StereoRig
@@ -27,6 +27,7 @@ from modeling.worker import worker
 from stereo_nav_env.actions import DISCRETE_ACTIONS, continuous_command, discrete_command
 from stereo_nav_env.config import EnvConfig
 from stereo_nav_env.diagnostics import GroundTruth, model_diagnostics
+from stereo_nav_env.fusion import fuse_view, memory_model_of, memory_options
 from stereo_nav_env.geodesic import GeodesicField
 from stereo_nav_env.observation import goal_features, observation_space, pack_memory, pack_model
 from stereo_nav_env.perception import (
@@ -43,7 +44,7 @@ from stereo_nav_env.rewards import StuckTimer, reward_components
 from stereo_nav_env.scenes import Scene, load_scenario
 from stereo_nav_env.surrogate import perceive_surrogate
 from stereo_nav_env.surrogate_visibility import SceneEdges
-from stereo_nav_env.viewer import MapView, draw_background, draw_frame
+from stereo_nav_env.viewer import MapView, draw_background, draw_frame, model_caption
 from stereo_nav_env.world import Contact, World
 
 __all__ = ["StereoNavDiscreteEnv", "StereoNavEnv"]
@@ -66,19 +67,6 @@ STAGES = (
     "diagnostics",
 )
 """Names of the stages timed in ``env.last_timings_ms``."""
-
-
-def memory_options(config: EnvConfig) -> MemoryOptions:
-    """How the env fuses views (:class:`~modeling.memory.MemoryOptions`): the defaults, with the
-    level head's vertical limit, so that the memory does not count as seen what lies below the
-    image's lower edge (a point of height ``h`` nearer than ``(head_height_m - h) /
-    tan(half_vfov_rad)``: the floor within 1.73 m with the defaults), and judges a segment in view
-    or not at its own height."""
-    camera = config.camera
-    return MemoryOptions(
-        head_height_m=config.world.head_height_m,
-        half_vfov_rad=math.atan((camera.height_px / 2.0) / camera.focal_px),
-    )
 
 
 def _pan_fraction(pan_rad: float, limit_rad: float) -> float:
@@ -445,35 +433,15 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     def _remember(self, contacts: tuple[Contact, ...], watch: Stopwatch) -> None:
         """Fuse the latest view (``self.model``) and ``contacts`` into ``self.memory`` (laps
         ``fusion``), then build ``self.memory_model`` from it (lap ``memory_model``)."""
-        cfg = self.config
         assert self.model is not None and self.memory is not None
-        options = self.memory_options
-        memory = fuse(self.memory, self.model.observation, options)
-        for contact in contacts:
-            memory = add_contact(
-                memory,
-                contact.point_xy,
-                contact.normal_xy,
-                height_m=cfg.world.robot_height_m,
-                options=options,
-            )
-        self.memory = memory
+        self.memory = fuse_view(self.memory, self.model, contacts, self.config, self.memory_options)
         watch.lap("fusion")
-        self.memory_model = ComparableModel.of(
-            build_memory_model(
-                memory,
-                cfg.world.robot_width_m,
-                eps=cfg.eps,
-                max_situations=cfg.model_max_situations,
-            )
-        )
+        self.memory_model = ComparableModel.of(memory_model_of(self.memory, self.config))
         watch.lap("memory_model")
 
     def _info(self, watch: Stopwatch, *, geodesic_m: float) -> dict[str, Any]:
-        """The info dict of the current state (``geodesic_m``: its geodesic distance to the goal,
-        which the caller has at hand)."""
-        assert self.scene is not None and self._geodesic is not None and self.model is not None
-        assert self.memory_model is not None
+        """The info dict of the current state (``geodesic_m``: its distance to the goal)."""
+        assert self.scene is not None and self.model is not None and self.memory_model is not None
         pose = self.robot_pose
         diagnostics: dict[str, float] = {}
         if self.config.diagnostics:
@@ -584,36 +552,19 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             view = MapView.of(self.scene)
             self._view = (view, draw_background(self.scene, view, self.config.world.robot_width_m))
         view, background = self._view
-        model = self.model
-        lines = [f"{self.scene.name}  step {self._steps}  return {self._return:+.2f}"]
-        if model is not None:
-            best = model.situations[0] if model.situations else None
-            lines.append(
-                f"situations {len(model.situations)}  residual {model.residual_probability:.3f}"
-            )
-            if best is not None:
-                lines.append(
-                    f"best: P={best.probability:.2f}  obstacles {len(best.obstacles)}  "
-                    f"regions {len(best.critical_regions)}"
-                )
-                doubtful = sorted(best.critical_regions, key=lambda r: abs(r.p_passable - 0.5))
-                for region in doubtful[:6]:
-                    lines.append(
-                        f"  width {region.width_mean_m:.2f}+-{region.width_std_m:.2f} m  "
-                        f"p={region.p_passable:.2f}"
-                    )
+        headline = f"{self.scene.name}  step {self._steps}  return {self._return:+.2f}"
         state = self._require_world().state
         return draw_frame(
             background,
             view,
             scene=self.scene,
-            model=model,
+            model=self.model,
             robot_pose=self.robot_pose,
             gaze_rad=state.gaze_rad,
             robot_radius_m=self.config.world.robot_radius_m,
             goal_radius_m=self.config.goal_radius_m,
             left_image=None if self._clean_pair is None else self._noisy_pair()[0],
-            caption="\n".join(lines),
+            caption=model_caption(headline, self.model),
         )
 
     def close(self) -> None:

@@ -36,6 +36,7 @@ __all__ = [
     "MapView",
     "draw_background",
     "draw_frame",
+    "model_caption",
     "passability_color",
 ]
 
@@ -242,3 +243,26 @@ def draw_frame(
             panel, line, (8, top + 18 * i), cv2.FONT_HERSHEY_SIMPLEX, 0.45, _TEXT, 1, cv2.LINE_AA
         )
     return img
+
+
+def model_caption(headline: str, model: EnvironmentModel | None) -> str:
+    """The caption of a frame: ``headline``, then the model's situations and its most probable
+    situation's obstacles and most doubtful critical regions (width, ``p_passable``)."""
+    lines = [headline]
+    if model is not None:
+        best = model.situations[0] if model.situations else None
+        lines.append(
+            f"situations {len(model.situations)}  residual {model.residual_probability:.3f}"
+        )
+        if best is not None:
+            lines.append(
+                f"best: P={best.probability:.2f}  obstacles {len(best.obstacles)}  "
+                f"regions {len(best.critical_regions)}"
+            )
+            doubtful = sorted(best.critical_regions, key=lambda r: abs(r.p_passable - 0.5))
+            for region in doubtful[:6]:
+                lines.append(
+                    f"  width {region.width_mean_m:.2f}+-{region.width_std_m:.2f} m  "
+                    f"p={region.p_passable:.2f}"
+                )
+    return "\n".join(lines)
