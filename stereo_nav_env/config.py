@@ -282,6 +282,9 @@ class EnvConfig:
             ``"surrogate"`` (render nothing: the floor observation from the true scene and the
             stereo's error model and measured rates, :mod:`stereo_nav_env.surrogate`; the
             observation must then hold no images).
+        memory: Whether every view is fused into the episode's memory and its model built
+            (``info["memory_model"]``, the ``memory_*`` diagnostics; the ``"memory"`` observation
+            modes need it). ``False`` saves that cost (``info["memory_model"]`` is ``None``).
         diagnostics: Whether ``info["diagnostics"]`` compares the model with ground truth.
         world: The robot and its physics (:class:`~stereo_nav_env.world.WorldConfig`).
         camera: The stereo camera and its pixel noise (:class:`CameraConfig`).
@@ -298,6 +301,7 @@ class EnvConfig:
     model_max_situations: int = 64
     close_faces: bool = True
     perception: str = "stereo"
+    memory: bool = True
     diagnostics: bool = True
     world: WorldConfig = field(default_factory=WorldConfig)
     camera: CameraConfig = field(default_factory=CameraConfig)
@@ -319,6 +323,7 @@ class EnvConfig:
         integer(self.stuck_steps, "stuck_steps", low=0)
         number(self.stuck_progress_m, "stuck_progress_m", low=0.0)
         boolean(self.close_faces, "close_faces")
+        boolean(self.memory, "memory")
         boolean(self.diagnostics, "diagnostics")
         if self.perception not in PERCEPTIONS:
             raise ValueError(
@@ -328,6 +333,11 @@ class EnvConfig:
         _instance(self.camera, "camera", CameraConfig)
         _instance(self.observation, "observation", ObservationConfig)
         _instance(self.rewards, "rewards", RewardConfig)
+        if self.observation.has_memory and not self.memory:
+            raise ValueError(
+                f"observation_mode {self.observation.observation_mode.value!r} observes the "
+                "memory: memory must be True"
+            )
         if self.perception == "surrogate" and self.observation.has_images:
             raise ValueError(
                 "perception='surrogate' renders no images: observation_mode must be 'model', "

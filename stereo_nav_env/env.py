@@ -404,14 +404,11 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         )
 
     def _observe(self, watch: Stopwatch, contacts: tuple[Contact, ...] = ()) -> Obs:
-        """Perceive (render the pair and run the pipeline, or the surrogate), fuse the view and
-        ``contacts`` into the memory, pack the observation (``self.model``, ``self.memory``,
-        ``self.memory_model`` updated)."""
-        cfg = self.config
+        """Perceive (render and run the pipeline, or the surrogate), fuse the view and ``contacts``
+        into the memory (:meth:`_remember`), pack the observation."""
+        cfg, world, pose = self.config, self._require_world(), self.robot_pose
         self.model = self._perceive(watch)
         self._remember(contacts, watch)
-        world = self._require_world()
-        pose = self.robot_pose
         assert self.scene is not None
         obs: Obs = {
             "goal": goal_features(self.scene.goal, pose),
@@ -431,8 +428,10 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         return obs
 
     def _remember(self, contacts: tuple[Contact, ...], watch: Stopwatch) -> None:
-        """Fuse the latest view (``self.model``) and ``contacts`` into ``self.memory`` (laps
-        ``fusion``), then build ``self.memory_model`` from it (lap ``memory_model``)."""
+        """With ``config.memory``: fuse the latest view (``self.model``) and ``contacts`` into
+        ``self.memory`` (lap ``fusion``), then build ``self.memory_model`` (``memory_model``)."""
+        if not self.config.memory:
+            return
         assert self.model is not None and self.memory is not None
         self.memory = fuse_view(self.memory, self.model, contacts, self.config, self.memory_options)
         watch.lap("fusion")
@@ -441,13 +440,15 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
 
     def _info(self, watch: Stopwatch, *, geodesic_m: float) -> dict[str, Any]:
         """The info dict of the current state (``geodesic_m``: its distance to the goal)."""
-        assert self.scene is not None and self.model is not None and self.memory_model is not None
+        assert self.scene is not None and self.model is not None
         pose = self.robot_pose
         diagnostics: dict[str, float] = {}
         if self.config.diagnostics:
             assert self._truth is not None
             diagnostics = model_diagnostics(self.model, self._truth)
-            diagnostics.update(model_diagnostics(self.memory_model, self._truth, prefix="memory_"))
+            if self.memory_model is not None:
+                memory = model_diagnostics(self.memory_model, self._truth, prefix="memory_")
+                diagnostics.update(memory)
         watch.lap("diagnostics")
         return {
             "model": self.model,

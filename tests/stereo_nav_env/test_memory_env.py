@@ -141,6 +141,37 @@ def test_info_holds_the_memory_model_every_step_with_its_stages_and_diagnostics(
         env.close()
 
 
+def test_memory_false_skips_the_fusion_and_keeps_the_single_view_results() -> None:
+    """``memory=False``: no fusion, no memory model, no ``memory_*`` diagnostics; the single-view
+    observation, reward and diagnostics are those of the env with memory (same seed, actions)."""
+    envs = [gym.make("StereoNav-v0", scenario="two_gaps", memory=m, **SMALL) for m in (True, False)]
+    try:
+        runs = []
+        for env in envs:
+            obs, info = env.reset(seed=3)
+            steps = [(obs, 0.0, info)]
+            for i in range(4):
+                obs, reward, _, _, info = env.step(np.array([0.5, 0.2, 0.3 * i], np.float32))
+                steps.append((obs, reward, info))
+            runs.append(steps)
+        for (obs_m, r_m, info_m), (obs_n, r_n, info_n) in zip(*runs, strict=True):
+            assert info_n["memory_model"] is None and isinstance(
+                info_m["memory_model"], EnvironmentModel
+            )
+            assert not any(k.startswith("memory_") for k in info_n["diagnostics"])
+            assert info_n["diagnostics"] == {
+                k: v for k, v in info_m["diagnostics"].items() if not k.startswith("memory_")
+            }
+            assert r_n == r_m and obs_m.keys() == obs_n.keys()
+            for key in obs_m:
+                np.testing.assert_array_equal(obs_m[key], obs_n[key])
+        timings = _u(envs[1]).last_timings_ms
+        assert "fusion" not in timings and "memory_model" not in timings
+    finally:
+        for env in envs:
+            env.close()
+
+
 def test_unknown_channel_covers_the_blind_band_at_reset_and_the_floor_behind(
     tmp_path: pathlib.Path,
 ) -> None:
