@@ -2,7 +2,7 @@
 
 What a view sees is its field-of-view wedge of radius ``max_range_m`` up to the nearest segment
 along each ray: the same angular sweep as :func:`modeling.occlusion.occluded_area`
-(:func:`modeling.occlusion.nearest_hits`), kept as the hit distance per ray. A floor point is
+(:func:`modeling.occlusion.ray_hits`), kept as the hit distance per ray. A floor point is
 *seen free* when it lies in the wedge, beyond ``near_range_m`` (the floor too close to appear in
 the image) and at least ``margin_m`` short of the nearest hit along its ray (so a remembered
 segment lying on or just in front of what the view sees is not counted as seen free). The
@@ -22,7 +22,7 @@ import shapely
 
 from modeling.geometry import wrap_angle
 from modeling.observation import FloorObservation
-from modeling.occlusion import RaysAndSegments, nearest_hits
+from modeling.occlusion import ray_hits
 from modeling.validation import FloatArray
 
 __all__ = ["Visibility", "visibility"]
@@ -102,28 +102,13 @@ def visibility(
         n_rays: Rays across the field of view (>= 2).
         near_m: Floor nearer than this is not seen, metres.
     """
-    vp = np.asarray(observation.viewpoint[:2], dtype=np.float64)
-    heading = float(observation.viewpoint[2])
+    sweep = ray_hits(observation, occluders, n_rays)
     half = 0.5 * float(observation.fov_rad)
-    R = float(observation.max_range_m)
-    offsets = np.linspace(-half, half, n_rays)
-    reach = np.full(n_rays, R)
-    if occluders.shape[0]:
-        step = 2.0 * half / (n_rays - 1)
-        ang = heading + offsets
-        u = np.stack([np.cos(ang), np.sin(ang)], axis=1)
-        p = occluders[:, 0] - vp
-        e = occluders[:, 1] - occluders[:, 0]
-        a0 = wrap_angle(np.arctan2(p[:, 1], p[:, 0]) - heading)
-        a1 = wrap_angle(np.arctan2(p[:, 1] + e[:, 1], p[:, 0] + e[:, 0]) - heading)
-        lo, hi = np.minimum(a0, a1), np.maximum(a0, a1)
-        ok = hi - lo < math.pi
-        k0 = np.clip(np.ceil((lo + half) / step - 1e-9), 0, n_rays).astype(np.int64)
-        k1 = np.clip(np.floor((hi + half) / step + 1e-9), -1, n_rays - 1).astype(np.int64)
-        cnt = np.where(ok, np.maximum(k1 - k0 + 1, 0), 0)
-        if cnt.any():
-            hit = nearest_hits(RaysAndSegments(u=u, p=p, e=e, k0=k0, n_rays=cnt))
-            reach = np.minimum(reach, hit)
     return Visibility(
-        origin=vp, heading=heading, half_fov=half, angles=offsets, reach=reach, near_m=near_m
+        origin=sweep.origin,
+        heading=float(observation.viewpoint[2]),
+        half_fov=half,
+        angles=np.linspace(-half, half, n_rays),
+        reach=np.minimum(sweep.hit, sweep.max_range),
+        near_m=near_m,
     )

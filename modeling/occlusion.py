@@ -39,6 +39,7 @@ __all__ = [
     "occluded_area",
     "occluders_of",
     "polygons_of",
+    "ray_hits",
     "shadow_rings",
 ]
 
@@ -112,38 +113,48 @@ def occluded_area(obs: FloorObservation, ends: FloatArray, n_rays: int = 361) ->
     Returns:
         A shapely (Multi)Polygon, possibly empty; world frame, metres.
     """
-    vp = np.asarray(obs.viewpoint[:2], dtype=np.float64)
-    R = float(obs.max_range_m)
-    half = 0.5 * float(obs.fov_rad)
     if ends.shape[0] == 0:
         return _EMPTY_POLYGON
-    heading = float(obs.viewpoint[2])
-    step = 2.0 * half / (n_rays - 1)
-    ang = heading + _ray_offsets(half, n_rays)
-    u = np.stack([np.cos(ang), np.sin(ang)], axis=1)  # (B, 2)
-    p = ends[:, 0] - vp
-    e = ends[:, 1] - ends[:, 0]
-    # Angular span of each segment relative to the heading (the arc it subtends, < pi).
-    a0 = wrap_angle(np.arctan2(p[:, 1], p[:, 0]) - heading)
-    a1 = wrap_angle(np.arctan2(p[:, 1] + e[:, 1], p[:, 0] + e[:, 0]) - heading)
-    lo, hi = np.minimum(a0, a1), np.maximum(a0, a1)
-    ok = hi - lo < np.pi  # a segment whose shorter arc passes behind the viewpoint: not in FOV
-    k0 = np.clip(np.ceil((lo + half) / step - 1e-9), 0, n_rays).astype(np.int64)
-    k1 = np.clip(np.floor((hi + half) / step + 1e-9), -1, n_rays - 1).astype(np.int64)
-    cnt = np.where(ok, np.maximum(k1 - k0 + 1, 0), 0)
-    if not cnt.any():
+    sweep = ray_hits(obs, ends, n_rays)
+    if not (sweep.hit < sweep.max_range).any():
         return _EMPTY_POLYGON
-    hit = nearest_hits(RaysAndSegments(u=u, p=p, e=e, k0=k0, n_rays=cnt))
     # Runs of consecutive blocked rays -> polygons (the wedge minus the star polygon of the ray
     # hits), all rings in one vectorised call (shapely closes each ring, as Polygon(shell) does).
-    rings = shadow_rings(RaySweep(origin=vp, u=u, hit=hit, max_range=R))
-    n_rings = rings.sizes.shape[0]
-    if n_rings == 0:
-        return _EMPTY_POLYGON
+    rings = shadow_rings(sweep)
+    n_rings = rings.sizes.shape[0]  # >= 1: some ray is blocked
     polys = shapely.polygons(
         shapely.linearrings(rings.vertices, indices=np.repeat(np.arange(n_rings), rings.sizes))
     )
     return polys[0] if n_rings == 1 else shapely.multipolygons(polys)
+
+
+def ray_hits(obs: FloorObservation, ends: FloatArray, n_rays: int) -> RaySweep:
+    """The ``n_rays`` rays across the field of view of ``obs`` and the nearest of the segments
+    ``ends`` (n, 2, 2; world metres) each meets (``hit`` ``inf``: none; section 4.1).
+
+    Only the rays within a segment's angular span (the arc it subtends, < pi, relative to the
+    heading) are intersected with it (:func:`nearest_hits`).
+    """
+    vp = np.asarray(obs.viewpoint[:2], dtype=np.float64)
+    heading = float(obs.viewpoint[2])
+    half = 0.5 * float(obs.fov_rad)
+    ang = heading + _ray_offsets(half, n_rays)
+    u = np.stack([np.cos(ang), np.sin(ang)], axis=1)  # (B, 2)
+    hit = np.full(n_rays, np.inf)
+    if ends.shape[0]:
+        step = 2.0 * half / (n_rays - 1)
+        p = ends[:, 0] - vp
+        e = ends[:, 1] - ends[:, 0]
+        a0 = wrap_angle(np.arctan2(p[:, 1], p[:, 0]) - heading)
+        a1 = wrap_angle(np.arctan2(p[:, 1] + e[:, 1], p[:, 0] + e[:, 0]) - heading)
+        lo, hi = np.minimum(a0, a1), np.maximum(a0, a1)
+        ok = hi - lo < np.pi  # a segment whose shorter arc passes behind the viewpoint: not in FOV
+        k0 = np.clip(np.ceil((lo + half) / step - 1e-9), 0, n_rays).astype(np.int64)
+        k1 = np.clip(np.floor((hi + half) / step + 1e-9), -1, n_rays - 1).astype(np.int64)
+        cnt = np.where(ok, np.maximum(k1 - k0 + 1, 0), 0)
+        if cnt.any():
+            hit = nearest_hits(RaysAndSegments(u=u, p=p, e=e, k0=k0, n_rays=cnt))
+    return RaySweep(origin=vp, u=u, hit=hit, max_range=float(obs.max_range_m))
 
 
 def occluders_of(situation: Situation) -> FloatArray:

@@ -16,12 +16,11 @@ from modeling.faces import FACE_SOURCE, FaceOptions, close_faces, face_pairs
 from modeling.matching import match_segments
 from modeling.model import build_model
 from modeling.observation import FloorObservation, FloorSegment
-from modeling.pipeline import to_gray
 from modeling.rig import HeadPose, StereoRig
 from modeling.segments import ImageSegments, extract_segment_pair
 from modeling.triangulation import triangulate_to_floor
-from stereo_nav_env.render import StereoRenderer
 from stereo_nav_env.scenes import Scene, make_obstacle, oriented_rect
+from tests.integration.rendering import noisy_grey_pair
 
 RIG = StereoRig()
 HEAD = HeadPose(x_m=0.0, y_m=0.0, heading_rad=0.0, height_m=0.8)
@@ -36,18 +35,7 @@ def _observe(
     scene = Scene(
         name="t", bounds=(-1, -5, 12, 5), obstacles=obstacles, start=(0, 0, 0), goal=(11, 0)
     )
-    renderer = StereoRenderer(RIG, scene)
-    try:
-        left, right = renderer.render_stereo(HEAD)
-    except RuntimeError as exc:  # pragma: no cover - no OpenGL on this machine
-        pytest.skip(f"rendering unavailable: {exc}")
-    finally:
-        renderer.close()
-    rng = np.random.default_rng(0)
-    grey = []
-    for image in (left, right):
-        g = to_gray(image).astype(np.float64) + rng.normal(0.0, 2.0, image.shape[:2])
-        grey.append(np.clip(np.rint(g), 0, 255).astype(np.uint8))
+    grey = noisy_grey_pair(scene, RIG, HEAD)
     segs_l, segs_r = extract_segment_pair(*grey)
     floor = triangulate_to_floor(match_segments(segs_l, segs_r, RIG), RIG, HEAD)
     truth = shapely.union_all([shapely.Polygon(o.footprint) for o in obstacles])

@@ -6,19 +6,17 @@ from __future__ import annotations
 import os
 
 import numpy as np
-import pytest
 import shapely
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
 from modeling.matching import match_segments
-from modeling.pipeline import to_gray
 from modeling.rig import HeadPose, StereoRig
 from modeling.segments import extract_segment_pair
 from modeling.triangulation import triangulate_to_floor
 from stereo_nav_env.diagnostics import normalised_outline_errors
-from stereo_nav_env.render import StereoRenderer
 from stereo_nav_env.scenes import Scene, make_obstacle
+from tests.integration.rendering import noisy_grey_pair
 
 RIG = StereoRig()
 FOOTPRINT = np.array([[1.6, -0.3], [2.2, -0.3], [2.2, 0.35], [1.6, 0.35]])
@@ -28,18 +26,7 @@ def _floor_of_box(tilt_rad: float):  # type: ignore[no-untyped-def]
     box = make_obstacle("box", FOOTPRINT.tolist(), height_m=0.6, color=(0.55, 0.35, 0.2))
     scene = Scene(name="t", bounds=(-1, -5, 12, 5), obstacles=(box,), start=(0, 0, 0), goal=(11, 0))
     head = HeadPose(x_m=0.0, y_m=0.0, heading_rad=0.0, height_m=0.8, tilt_rad=tilt_rad)
-    renderer = StereoRenderer(RIG, scene)
-    try:
-        left, right = renderer.render_stereo(head)
-    except RuntimeError as exc:  # pragma: no cover - no OpenGL on this machine
-        pytest.skip(f"rendering unavailable: {exc}")
-    finally:
-        renderer.close()
-    rng = np.random.default_rng(0)
-    grey = []
-    for image in (left, right):
-        g = to_gray(image).astype(np.float64) + rng.normal(0.0, 2.0, image.shape[:2])
-        grey.append(np.clip(np.rint(g), 0, 255).astype(np.uint8))
+    grey = noisy_grey_pair(scene, RIG, head)
     segs_l, segs_r = extract_segment_pair(*grey, rig=RIG)
     return triangulate_to_floor(match_segments(segs_l, segs_r, RIG), RIG, head)
 
