@@ -18,7 +18,6 @@ Frames: world, metres; covariances m^2.
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -32,7 +31,7 @@ from modeling.memory_association import (
     stack_of,
     subset,
 )
-from modeling.observation import P_NONE_ATOL, AmbiguousSegment, FloorSegment
+from modeling.observation import P_NONE_ATOL, AmbiguousSegment, FloorSegment, none_mass
 from modeling.validation import FloatArray
 
 __all__ = [
@@ -41,7 +40,6 @@ __all__ = [
     "NewAmbiguities",
     "candidates_of",
     "explain_new",
-    "none_mass",
     "posterior",
     "reweight",
     "trusted_ambiguous",
@@ -183,7 +181,7 @@ def reweight(
         changed = np.add.reduceat((ratio != 1.0).astype(np.int64), starts) > 0
         detected = np.add.reduceat(touched.astype(np.int64), starts) > 0
         w = mem.prob * ratio
-        none = np.array([none_mass(amb.probabilities) for amb in remembered])
+        none = np.array([amb.p_none for amb in remembered])
         total = np.add.reduceat(w, starts) + none
         post = w / total[mem.owner]
         special = (
@@ -379,14 +377,6 @@ def trusted_ambiguous(
     for name, default in _EXTRA_FIELDS:
         object.__setattr__(amb, name, default)
     return amb
-
-
-def none_mass(probabilities: list[float] | tuple[float, ...]) -> float:
-    """``p_none = 1 - sum(probabilities)``, 0 below :data:`~modeling.observation.P_NONE_ATOL`
-    (as :attr:`~modeling.observation.AmbiguousSegment.p_none`: rounding is no evidence, and it
-    would grow by Bayes' rule while every candidate is seen free)."""
-    rest = 1.0 - math.fsum(probabilities)
-    return rest if rest > P_NONE_ATOL else 0.0
 
 
 def _with_none_prior(amb: AmbiguousSegment, none_prior: float) -> AmbiguousSegment:

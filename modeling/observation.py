@@ -12,7 +12,7 @@ import numpy as np
 
 from modeling.validation import FloatArray, covariance, finite_array, positive, probabilities
 
-__all__ = ["AmbiguousSegment", "FloorObservation", "FloorSegment"]
+__all__ = ["AmbiguousSegment", "FloorObservation", "FloorSegment", "none_mass"]
 
 P_NONE_ATOL = 1e-9  # a p_none below this is rounding: the candidates sum to 1
 
@@ -69,6 +69,14 @@ class FloorSegment:
         )
 
 
+def none_mass(probabilities: list[float] | tuple[float, ...]) -> float:
+    """``p_none = 1 - sum(probabilities)`` of candidate probabilities, 0 below
+    :data:`P_NONE_ATOL` (rounding is no evidence, and it would grow by Bayes' rule while every
+    candidate is seen free)."""
+    rest = 1.0 - math.fsum(probabilities)
+    return rest if rest > P_NONE_ATOL else 0.0
+
+
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
 class AmbiguousSegment:
     """One image segment with several possible matches (section 3.3).
@@ -110,8 +118,7 @@ class AmbiguousSegment:
     def p_none(self) -> float:
         """Probability that none of the candidates is an obstacle: ``1 - sum(probabilities)``
         (0 when they sum to 1 within 1e-9)."""
-        rest = 1.0 - math.fsum(self.probabilities)
-        return rest if rest > P_NONE_ATOL else 0.0
+        return none_mass(self.probabilities)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
