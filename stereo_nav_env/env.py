@@ -353,6 +353,14 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         cfg = self.config
         rig = self.rig
         head = self.head_pose
+        settings: dict[str, Any] = {  # of the model, the same for both perceptions
+            "robot_width_m": cfg.world.robot_width_m,
+            "robot_height_m": cfg.world.robot_height_m,
+            "eps": cfg.eps,
+            "max_situations": cfg.model_max_situations,
+            "close_faces": cfg.close_faces,
+            "stopwatch": watch,
+        }
         if cfg.perception == "surrogate":
             assert self.scene is not None
             if self._edges is None or self._edges[0] is not self.scene:
@@ -362,12 +370,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
                 rig,
                 head,
                 self.np_random,
-                robot_width_m=cfg.world.robot_width_m,
-                robot_height_m=cfg.world.robot_height_m,
-                eps=cfg.eps,
-                max_situations=cfg.model_max_situations,
-                close_faces=cfg.close_faces,
-                stopwatch=watch,
+                **settings,
             )
         sigma = cfg.camera.pixel_noise_std
         # the pixel noise is drawn in the worker thread while the pair renders (the generator
@@ -395,12 +398,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             grey[1],
             self.rig,
             head,
-            robot_width_m=cfg.world.robot_width_m,
-            robot_height_m=cfg.world.robot_height_m,
-            eps=cfg.eps,
-            max_situations=cfg.model_max_situations,
-            close_faces=cfg.close_faces,
-            stopwatch=watch,
+            **settings,
         )
 
     def _observe(self, watch: Stopwatch, contacts: tuple[Contact, ...] = ()) -> Obs:
