@@ -5,7 +5,8 @@ target); ``StereoNavDiscrete-v0``: ``Discrete(11)`` move-and-look macro actions.
 model of the stereo pair (situations, critical regions, a top-down raster); see
 :class:`stereo_nav_env.env.StereoNavEnv`. ``StereoNav-v1`` and ``StereoNavDiscrete-v1`` are the
 same environments under the v1 episode rules (``rules="v1"``: collisions do not end an episode;
-:data:`stereo_nav_env.config.RULES`).
+:data:`stereo_nav_env.config.RULES`) with the observation made for learned policies
+(``observation_mode="policy"``).
 """
 
 from gymnasium.envs.registration import register
@@ -20,5 +21,5 @@ for _name, _entry in (("StereoNav", "StereoNavEnv"), ("StereoNavDiscrete", "Ster
         id=f"{_name}-v1",
         entry_point=f"stereo_nav_env.env:{_entry}",
         max_episode_steps=500,
-        kwargs={"rules": "v1"},
+        kwargs={"rules": "v1", "observation_mode": "policy"},
     )

@@ -52,18 +52,21 @@ __all__ = [
 
 class ObservationMode(str, Enum):
     """What the observation holds: the model of the latest view, the rectified pair, both, the
-    model fused over the episode's views (``memory``), or the latest view's and the fused one."""
+    model fused over the episode's views (``memory``), the latest view's and the fused one, or
+    ``policy``: the latest view's model with what a learned policy needs beside it (the floor
+    never seen, the contact, the previous action, a normalised goal; ``StereoNav-v1``'s)."""
 
     MODEL = "model"
     IMAGES = "images"
     BOTH = "both"
     MEMORY = "memory"
     MODEL_MEMORY = "model_memory"
+    POLICY = "policy"
 
 
 OBSERVATION_MODES = tuple(mode.value for mode in ObservationMode)
 """The values of :class:`ObservationMode` (``"model"``, ``"images"``, ``"both"``, ``"memory"``,
-``"model_memory"``)."""
+``"model_memory"``, ``"policy"``)."""
 
 PERCEPTIONS = ("stereo", "surrogate")
 """The values of ``EnvConfig.perception``: the rendered stereo pipeline, or its surrogate."""
@@ -172,7 +175,11 @@ class ObservationConfig:
             critical regions, raster, goal, head pan), ``"images"`` (the rectified pair, goal,
             head pan), ``"both"`` (the two), ``"memory"`` (the fused model's situations,
             critical regions and raster with its unknown channel, goal, head pan) or
-            ``"model_memory"`` (the model's keys and the fused model's).
+            ``"model_memory"`` (the model's keys and the fused model's) or ``"policy"`` (a
+            five-channel raster that separates seen-free, occupied, critical, occluded and
+            never-seen floor, the situations and regions scaled to [-1, 1], the goal as distance
+            over ``goal_range_m`` with its bearing's cos and sin, the head pan, a contact flag
+            and the previous action: :func:`stereo_nav_env.observation.pack_policy`).
         num_situations: K, the most probable situations observed (the rest are left out).
         num_regions: R, critical regions kept per situation (the nearest to the robot).
         raster_size_px: Side of the square egocentric raster, pixels (>= 36, SB3's CNN minimum).
@@ -180,6 +187,8 @@ class ObservationConfig:
             direction, metres.
         feature_range_m: Bound of the positions and lengths in ``critical_regions``, metres
             (larger values are clipped).
+        goal_range_m: In mode ``"policy"`` the goal's distance is observed over this range,
+            metres (clipped to 1).
     """
 
     observation_mode: ObservationMode = ObservationMode.MODEL
@@ -188,6 +197,7 @@ class ObservationConfig:
     raster_size_px: int = 64
     raster_half_extent_m: float = 5.0
     feature_range_m: float = 10.0
+    goal_range_m: float = 15.0
 
     def __post_init__(self) -> None:
         try:
@@ -203,6 +213,7 @@ class ObservationConfig:
         integer(self.raster_size_px, "raster_size_px", low=36)
         number(self.raster_half_extent_m, "raster_half_extent_m", low=0.0)
         number(self.feature_range_m, "feature_range_m", low=0.0)
+        number(self.goal_range_m, "goal_range_m", low=0.0)
 
     @property
     def num_features(self) -> int:
@@ -227,6 +238,11 @@ class ObservationConfig:
     def has_images(self) -> bool:
         """Whether the rectified pair is observed."""
         return self.observation_mode in (ObservationMode.IMAGES, ObservationMode.BOTH)
+
+    @property
+    def has_policy(self) -> bool:
+        """Whether the observation is the learned policy's (mode ``"policy"``)."""
+        return self.observation_mode is ObservationMode.POLICY
 
     @property
     def has_memory(self) -> bool:
@@ -349,6 +365,20 @@ class EnvConfig:
     def rig(self) -> StereoRig:
         """The stereo rig of the camera (``camera.rig``)."""
         return self.camera.rig
+
+    @property
+    def blind_range_m(self) -> float:
+        """The head does not see the floor nearer than this to its optical centre, metres: the
+        image's lower edge meets the floor there (``head_height_m / tan(half vertical field of
+        view + tilt)``; 1.73 m with the defaults; ``inf`` when the lower edge looks above the
+        horizon)."""
+        camera = self.camera
+        below = math.atan((camera.height_px / 2.0) / camera.focal_px) + camera.tilt_rad
+        if below <= 0.0:
+            return math.inf
+        if below >= 0.5 * math.pi:
+            return 0.0
+        return self.world.head_height_m / math.tan(below)
 
     @property
     def is_generated(self) -> bool:

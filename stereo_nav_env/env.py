@@ -11,6 +11,7 @@ Configuration: :mod:`.config`.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any, cast
 
@@ -29,7 +30,14 @@ from stereo_nav_env.config import EnvConfig
 from stereo_nav_env.diagnostics import GroundTruth, model_diagnostics
 from stereo_nav_env.fusion import fuse_view, memory_model_of, memory_options
 from stereo_nav_env.geodesic import GeodesicField
-from stereo_nav_env.observation import goal_features, observation_space, pack_memory, pack_model
+from stereo_nav_env.observation import (
+    goal_features,
+    observation_space,
+    pack_memory,
+    pack_model,
+    pack_policy,
+    pan_fraction,
+)
 from stereo_nav_env.perception import (
     ComparableModel,
     Stopwatch,
@@ -42,6 +50,7 @@ from stereo_nav_env.perception import (
 from stereo_nav_env.render import StereoRenderer
 from stereo_nav_env.rewards import StuckTimer, reward_components
 from stereo_nav_env.scenes import Scene, load_scenario
+from stereo_nav_env.seen import SeenFloor
 from stereo_nav_env.surrogate import perceive_surrogate
 from stereo_nav_env.surrogate_visibility import SceneEdges
 from stereo_nav_env.viewer import MapView, draw_background, draw_frame, model_caption
@@ -52,26 +61,11 @@ __all__ = ["StereoNavDiscreteEnv", "StereoNavEnv"]
 UInt8Image = NDArray[np.uint8]
 Obs = dict[str, NDArray[Any]]
 
-STAGES = (
-    "physics",
-    "noise",
-    "render",
-    "segments",
-    "matching",
-    "triangulation",
-    "modeling",
-    "fusion",
-    "memory_model",
-    "packing",
-    "rewards",
-    "diagnostics",
+STAGES = tuple(
+    "physics noise render segments matching triangulation modeling fusion memory_model packing "
+    "rewards diagnostics".split()
 )
 """Names of the stages timed in ``env.last_timings_ms``."""
-
-
-def _pan_fraction(pan_rad: float, limit_rad: float) -> float:
-    """Head pan as a fraction of its limit, in [-1, 1] (0 when the head cannot pan)."""
-    return min(max(pan_rad / limit_rad, -1.0), 1.0) if limit_rad > 0 else 0.0
 
 
 class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
@@ -87,16 +81,12 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     uncertain endpoints, obstacles, critical regions (gaps whose passability for the robot's width
     is undecided, each with ``p_passable``), the occluded area, and the possible situations of the
     world (one per combination of ambiguous matches) with their probabilities. One addition to
-    the paper's pipeline (``close_faces``, on by default): where a near-horizontal image line
-    joins the lower ends of two vertical edges (a plain face's bottom edge), the floor segment
-    between their floor points is added (:mod:`modeling.faces`), so a plain face wider than the
-    robot is not taken for a gap between its two edges. The observation
-    packs that model; gaps close to the robot's width make passability genuinely uncertain, and
-    looking again from elsewhere resolves it. Every view is also fused into the episode's memory
-    (:class:`~modeling.memory.ModelMemory`, paper section 6: segments associated and fused in the
-    world frame, ambiguous matches re-weighted by later views, floor seen free counting against
-    what it does not show, contacts as obstacles), whose model (``info["memory_model"]``) the
-    ``"memory"`` observation modes observe; the default mode observes the latest view's model.
+    the paper's pipeline (``close_faces``, on by default): a plain face's bottom edge joining the
+    lower ends of two vertical edges closes the "gap" between them (:mod:`modeling.faces`). Gaps
+    close to the robot's width make passability genuinely uncertain, and looking again from
+    elsewhere resolves it. Every view is also fused into the episode's memory
+    (:class:`~modeling.memory.ModelMemory`, paper section 6), whose model is
+    ``info["memory_model"]``.
 
     ## Action Space
     ``StereoNav-v0``: ``Box(-1, 1, (3,), float32)``; every action moves and looks:
@@ -159,15 +149,10 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     | `left`, `right`    | (H, W, 3)    | uint8   | [0, 255]    | the noisy rectified pair      |
     |                    |              |         |             | (``observation_mode``         |
     |                    |              |         |             | ``"images"`` or ``"both"``)   |
-    | `memory_situation_ | (K,)         | float32 | [0, 1]      | ``situation_probs`` of the    |
-    | probs`             |              |         |             | fused model                   |
-    | `memory_critical_  | (K * R * F,) | float32 | as          | ``critical_regions`` of the   |
-    | regions`           |              |         | `critical_  | fused model, in the robot     |
-    |                    |              |         | regions`    | frame of now                  |
-    | `memory_raster`    | (S, S, 4)    | uint8   | [0, 255]    | the `raster` channels of the  |
-    |                    |              |         |             | fused model, then unknown:    |
-    |                    |              |         |             | 255 where the floor was never |
-    |                    |              |         |             | seen in the episode           |
+
+    The ``memory_*`` keys: ``memory_situation_probs`` and ``memory_critical_regions`` are those
+    of the fused model (robot frame of now), ``memory_raster`` (S, S, 4) has the `raster`
+    channels of the fused model, then unknown (255 where the floor was never seen).
 
     The F region columns: valid, x_m, y_m (centre of the narrowest undecided relation),
     width_mean_m, width_std_m, p_passable, doubt (4p(1-p)), distance_m, bearing_rad, axis_x, axis_y
@@ -176,9 +161,14 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     [0, 1]; x_m, y_m in [-L, L]; width_mean_m, width_std_m, radius_m in [0, L]; distance_m in
     [0, 2L]; bearing_rad in [-pi, pi]; axis_x, axis_y in [-1, 1]. With
     ``observation_mode="images"`` only ``left``, ``right``, ``goal`` and ``head_pan`` are present.
-    The modes: ``"model"`` (the default: the latest view's model keys, ``goal``, ``head_pan``),
+    The modes: ``"model"`` (v0's default: the latest view's model keys, ``goal``, ``head_pan``),
     ``"images"``, ``"both"`` (model keys and images), ``"memory"`` (the three ``memory_*`` keys
-    instead of the model keys) and ``"model_memory"`` (the model keys and the ``memory_*`` keys).
+    instead of the model keys), ``"model_memory"`` (the model keys and the ``memory_*`` keys) and
+    ``"policy"`` (v1's default): `raster` (S, S, 5) with seen free (this view), occupied,
+    critical, occluded and never seen (the blind band, floor within ``blind_range_m`` of the
+    head, included) apart; `situation_probs`; `critical_regions` over their bounds, in [-1, 1];
+    `goal` (3,): distance over ``goal_range_m`` (15 m, clipped to 1), cos and sin of the
+    bearing; `head_pan`; `contact` (1,) in {0, 1}; `prev_action` (3,) in [-1, 1].
     Details: :mod:`stereo_nav_env.observation`, :mod:`stereo_nav_env.raster`.
 
     ## Rewards
@@ -213,21 +203,15 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
 
     ## Arguments
     ``gym.make("StereoNav-v0", render_mode=None, **kwargs)``: ``render_mode`` is ``None`` or
-    ``"rgb_array"`` (``render()`` returns a 480 x 960 RGB frame: the true world from above with the
-    model overlaid and the left image; :mod:`stereo_nav_env.viewer`). Every other keyword is a field
-    of :class:`~stereo_nav_env.config.EnvConfig` (scenario, episode end, model settings) or of one
-    of its sub-configurations, given flat (``robot_width_m=0.6``, ``num_situations=4``) or whole
-    (``world=``, ``camera=``, ``observation=``, ``rewards=``: an instance or a dict):
-    :class:`~stereo_nav_env.world.WorldConfig` (robot size, speeds, pan, ``dt_s``),
-    :class:`~stereo_nav_env.config.CameraConfig` (image size, focal length, baseline, pixel noise),
-    :class:`~stereo_nav_env.config.ObservationConfig` (``observation_mode``, K, R, raster) and
-    :class:`~stereo_nav_env.config.RewardConfig` (weights); an unknown or invalid one is a
-    ``ValueError`` naming it. The configuration is ``env.unwrapped.config`` (e.g.
-    ``config.world.max_speed_m_s``), its stereo rig ``env.unwrapped.rig``.
-    ``perception="surrogate"`` renders nothing: the floor observation comes from the true scene,
-    the stereo's error model and its measured rates (:mod:`stereo_nav_env.surrogate`,
-    ``docs/surrogate.md``), then the same modeling, packing, rewards and diagnostics; the
-    observation must then be ``"model"``.
+    ``"rgb_array"`` (``render()``: a 480 x 960 RGB frame, the true world from above with the model
+    and the left image; :mod:`stereo_nav_env.viewer`). Every other keyword is a field of
+    :class:`~stereo_nav_env.config.EnvConfig` or of one of its sub-configurations (world, camera,
+    observation, rewards), given flat (``robot_width_m=0.6``) or whole (``world=``: an instance
+    or a dict); an unknown or invalid one is a ``ValueError`` naming it. The configuration is
+    ``env.unwrapped.config``, its stereo rig ``env.unwrapped.rig``. ``perception="surrogate"``
+    renders nothing: the floor observation comes from the true scene, the stereo's error model
+    and its measured rates (:mod:`stereo_nav_env.surrogate`), then the same modeling, packing,
+    rewards and diagnostics; the observation must then hold no images.
 
     ## Version History
     * v0: the model-based observation (situations, critical regions, raster), move-and-look
@@ -237,7 +221,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
       the ``memory_*`` diagnostics); the default mode's spaces are unchanged.
     * v1: the episode rules of issue 18 (``rules="v1"``, :data:`~stereo_nav_env.config.RULES`):
       collisions do not end an episode and cost 0.1 per contact step; optional truncation when
-      stuck. Observation and actions as v0.
+      stuck; the ``"policy"`` observation by default. Actions as v0.
     """
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 10}  # noqa: RUF012
@@ -282,6 +266,8 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self._steps = 0
         self._return = 0.0
         self._stuck = StuckTimer(window_steps=0, progress_m=1.0, reference_m=math.inf)
+        self._seen: SeenFloor | None = None  # the floor seen in the episode ("policy" mode)
+        self._last = (np.zeros(3, np.float32), False)  # the last command and contact
 
     # ------------------------------------------------------------------ actions
     def _make_action_space(self) -> spaces.Space[Any]:
@@ -408,17 +394,20 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self.model = self._perceive(watch)
         self._remember(contacts, watch)
         assert self.scene is not None
-        obs: Obs = {
-            "goal": goal_features(self.scene.goal, pose),
-            "head_pan": np.array(
-                [_pan_fraction(world.pan_rad, cfg.world.pan_limit_rad)], np.float32
-            ),
-        }
-        if cfg.observation.has_model:
-            obs.update(pack_model(self.model, pose, cfg.observation))
-        if cfg.observation.has_memory:
+        near, ocfg = cfg.blind_range_m, cfg.observation
+        pan = np.array([pan_fraction(world.pan_rad, cfg.world.pan_limit_rad)], np.float32)
+        obs: Obs = {"goal": goal_features(self.scene.goal, pose), "head_pan": pan}
+        if ocfg.has_model:
+            obs.update(pack_model(self.model, pose, ocfg, near_m=near))
+        if ocfg.has_memory:
             assert self.memory is not None and self.memory_model is not None
-            obs.update(pack_memory(self.memory_model, self.memory.seen, pose, cfg.observation))
+            obs.update(pack_memory(self.memory_model, self.memory.seen, pose, ocfg, near_m=near))
+        if self._seen is not None:
+            self._seen.mark(self.model, near)
+            unseen = self._seen.never_seen(pose, ocfg)
+            obs.update(
+                pack_policy(self.model, unseen, self.scene.goal, pose, ocfg, near, self._last)
+            )
         if cfg.observation.has_images:
             left, right = self._noisy_pair()
             obs["left"], obs["right"] = left.copy(), right.copy()
@@ -492,6 +481,9 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self._steps = 0
         self._return = 0.0
         self.memory = ModelMemory.empty()  # the first view is fused into an empty memory
+        self._seen, self._last = None, (np.zeros(3, np.float32), False)
+        if cfg.observation.has_policy:  # the floor seen, on cells half the raster's
+            self._seen = SeenFloor(scene.bounds, cfg.observation.raster_cell_m / 2)
         watch.lap("physics")
         obs = self._observe(watch)
         assert self._geodesic is not None
@@ -517,6 +509,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             command[2] * cfg.world.pan_limit_rad,
         )
         watch.lap("physics")
+        self._last = (np.clip(command, -1.0, 1.0).astype(np.float32), bool(result.collided))
         obs = self._observe(watch, result.contacts)
         pose = self.robot_pose
         after = self._geodesic(pose[:2])
@@ -565,6 +558,15 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             left_image=None if self._clean_pair is None else self._noisy_pair()[0],
             caption=model_caption(headline, self.model),
         )
+
+    def set_scenario(self, scenario: str) -> None:
+        """Draw the next resets' scenes from ``scenario`` (a map or family; a curriculum's next
+        stage): the spaces stay, the episode under way goes on. ``ValueError`` for a bad name."""
+        self.config = dataclasses.replace(self.config, scenario=scenario)
+        cfg = self.config
+        width = cfg.world.robot_width_m
+        fixed = None if cfg.is_generated else load_scenario(cfg.scenario, robot_width_m=width)
+        self._fixed_scene = fixed
 
     def close(self) -> None:
         """Release the renderer's OpenGL context (idempotent; rendering again makes a new one)."""

@@ -25,6 +25,26 @@ S = ``raster_size_px``; the model keys are present in modes ``"model"``, ``"both
 | `memory_raster`    | (S, S, 4)   | uint8   | the raster's three channels of the fused model,  |
 |                    |             |         | then unknown: 255 where the floor was never seen |
 
+Mode ``"policy"`` (``StereoNav-v1``'s default) has its own keys, every non-image feature in a
+documented bounded range:
+
+| key                | shape        | dtype   | range    | meaning                                |
+|--------------------|--------------|---------|----------|----------------------------------------|
+| `raster`           | (S, S, 5)    | uint8   | 0-255    | occupancy, doubt, seen free (this      |
+|                    |              |         |          | view), occluded, never seen (episode): |
+|                    |              |         |          | :func:`~.raster.rasterize_policy`      |
+| `situation_probs`  | (K,)         | float32 | [0, 1]   | as above                               |
+| `critical_regions` | (K * R * F,) | float32 | [-1, 1]  | as above, each feature over its bound  |
+|                    |              |         |          | (positions over ``feature_range_m``,   |
+|                    |              |         |          | angles over pi)                        |
+| `goal`             | (3,)         | float32 | [0, 1],  | distance over ``goal_range_m``         |
+|                    |              |         | [-1, 1], | (clipped to 1), cos and sin of the     |
+|                    |              |         | [-1, 1]  | bearing (robot frame)                  |
+| `head_pan`         | (1,)         | float32 | [-1, 1]  | as above                               |
+| `contact`          | (1,)         | float32 | {0, 1}   | 1 when the last step touched something |
+| `prev_action`      | (3,)         | float32 | [-1, 1]  | the last step's (forward, turn, pan)   |
+|                    |              |         |          | command; zeros after reset             |
+
 The fused model is :func:`modeling.memory.build_memory_model` of the episode's
 :class:`~modeling.memory.ModelMemory` (every view so far fused in the world frame; ``info
 ["memory_model"]``); its features are those of the model, in the robot frame of now.
@@ -63,7 +83,7 @@ from modeling.geometry import to_robot_frame
 from modeling.model import EnvironmentModel
 from modeling.rig import StereoRig
 from stereo_nav_env.config import REGION_FEATURES, ObservationConfig
-from stereo_nav_env.raster import rasterize_memory, rasterize_model
+from stereo_nav_env.raster import rasterize_memory, rasterize_model, rasterize_policy
 
 __all__ = [
     "GOAL_RANGE_M",
@@ -71,6 +91,9 @@ __all__ = [
     "observation_space",
     "pack_memory",
     "pack_model",
+    "pack_policy",
+    "pan_fraction",
+    "policy_goal",
     "region_bounds",
     "to_robot_frame",
 ]
@@ -96,6 +119,8 @@ def region_bounds(cfg: ObservationConfig) -> tuple[Float32Array, Float32Array]:
 
 def observation_space(cfg: ObservationConfig, rig: StereoRig) -> spaces.Dict:
     """The ``Dict`` observation space for ``cfg`` (keys in the module docstring)."""
+    if cfg.has_policy:
+        return _policy_space(cfg)
     G = np.float32(GOAL_RANGE_M)
     fields: dict[str, spaces.Space[Any]] = {
         "goal": spaces.Box(
@@ -120,6 +145,84 @@ def observation_space(cfg: ObservationConfig, rig: StereoRig) -> spaces.Dict:
         fields["left"] = spaces.Box(0, 255, shape=shape, dtype=np.uint8)
         fields["right"] = spaces.Box(0, 255, shape=shape, dtype=np.uint8)
     return spaces.Dict(fields)
+
+
+def _policy_space(cfg: ObservationConfig) -> spaces.Dict:
+    """The space of mode ``"policy"``: every non-image feature in [-1, 1] (or [0, 1])."""
+    K, R, S = cfg.num_situations, cfg.num_regions, cfg.raster_size_px
+    unit = np.array([0.0, -1.0, -1.0], dtype=np.float32), np.ones(3, dtype=np.float32)
+    low, high = region_bounds(cfg)
+    scale = np.maximum(np.abs(low), np.abs(high))
+    return spaces.Dict(
+        {
+            "raster": spaces.Box(0, 255, shape=(S, S, 5), dtype=np.uint8),
+            "situation_probs": spaces.Box(0.0, 1.0, shape=(K,), dtype=np.float32),
+            "critical_regions": spaces.Box(
+                low=np.tile(low / scale, K * R), high=np.tile(high / scale, K * R), dtype=np.float32
+            ),
+            "goal": spaces.Box(low=unit[0], high=unit[1], dtype=np.float32),
+            "head_pan": spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32),
+            "contact": spaces.Box(0.0, 1.0, shape=(1,), dtype=np.float32),
+            "prev_action": spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32),
+        }
+    )
+
+
+def policy_goal(
+    goal_xy: tuple[float, float], robot_pose: tuple[float, float, float], range_m: float
+) -> Float32Array:
+    """``(min(distance / range_m, 1), cos(bearing), sin(bearing))`` (3,) float32 of the goal in
+    the robot frame (the bearing's cos and sin do not jump at +-pi; (0, 1, 0) at the goal)."""
+    g = to_robot_frame(np.asarray(goal_xy, dtype=np.float64), robot_pose)
+    x, y = float(g[0]), float(g[1])
+    d = math.hypot(x, y)
+    c, s = (x / d, y / d) if d > 1e-9 else (1.0, 0.0)
+    return np.array([min(d / range_m, 1.0), c, s], dtype=np.float32)
+
+
+def pack_policy(
+    model: EnvironmentModel,
+    never_seen: NDArray[np.uint8],
+    goal_xy: tuple[float, float],
+    robot_pose: tuple[float, float, float],
+    cfg: ObservationConfig,
+    near_m: float,
+    last: tuple[Float32Array, bool],
+) -> dict[str, NDArray[Any]]:
+    """The fields of mode ``"policy"`` but ``head_pan``: the five-channel ``raster``
+    (:func:`~stereo_nav_env.raster.rasterize_policy`), ``situation_probs``,
+    ``critical_regions`` with every feature divided by its bound (so in [-1, 1]), ``goal``
+    (:func:`policy_goal`), ``contact`` and ``prev_action``.
+
+    Args:
+        model: The latest view's model (world frame).
+        never_seen: (S, S) uint8 egocentric, 255 where no view has seen the floor.
+        goal_xy: The goal, world frame, metres.
+        robot_pose: ``(x_m, y_m, heading_rad)`` of the robot's centre, world frame.
+        cfg: K, R, raster size and extent, feature range, goal range.
+        near_m: The blind band, metres (``EnvConfig.blind_range_m``).
+        last: The last step's normalised command (3,) in [-1, 1] and whether it touched
+            something.
+
+    Returns:
+        New arrays: (S, S, 5) uint8, (K,), (K * R * F,), (3,), (1,), (3,) float32.
+    """
+    low, high = region_bounds(cfg)
+    scale = np.maximum(np.abs(low), np.abs(high))
+    table = _region_table(model, robot_pose, cfg) / scale
+    return {
+        "raster": rasterize_policy(model, never_seen, robot_pose, cfg, near_m=near_m),
+        "situation_probs": _situation_probs(model, cfg),
+        "critical_regions": table.astype(np.float32).reshape(-1),
+        "goal": policy_goal(goal_xy, robot_pose, cfg.goal_range_m),
+        "contact": np.array([1.0 if last[1] else 0.0], dtype=np.float32),
+        "prev_action": np.clip(last[0], -1.0, 1.0).astype(np.float32),
+    }
+
+
+def pan_fraction(pan_rad: float, limit_rad: float) -> float:
+    """Head pan as a fraction of its limit, in [-1, 1] (0 when the head cannot pan)."""
+    return min(max(pan_rad / limit_rad, -1.0), 1.0) if limit_rad > 0 else 0.0
 
 
 def goal_features(
@@ -184,7 +287,11 @@ def _region_table(
 
 
 def pack_model(
-    model: EnvironmentModel, robot_pose: tuple[float, float, float], cfg: ObservationConfig
+    model: EnvironmentModel,
+    robot_pose: tuple[float, float, float],
+    cfg: ObservationConfig,
+    *,
+    near_m: float = 0.0,
 ) -> dict[str, NDArray[Any]]:
     """The model fields of the observation: ``situation_probs``, ``critical_regions``, ``raster``.
 
@@ -192,6 +299,7 @@ def pack_model(
         model: The environment model (world frame).
         robot_pose: ``(x_m, y_m, heading_rad)`` of the robot's centre, world frame.
         cfg: K, R, raster size and extent, feature range.
+        near_m: The blind band, metres (``EnvConfig.blind_range_m``).
 
     Returns:
         New arrays: (K,) float32, (K * R * F,) float32, (S, S, 3) uint8.
@@ -199,7 +307,7 @@ def pack_model(
     return {
         "situation_probs": _situation_probs(model, cfg),
         "critical_regions": _region_table(model, robot_pose, cfg).reshape(-1),
-        "raster": rasterize_model(model, robot_pose, cfg),
+        "raster": rasterize_model(model, robot_pose, cfg, near_m=near_m),
     }
 
 
@@ -217,6 +325,8 @@ def pack_memory(
     seen: Any,
     robot_pose: tuple[float, float, float],
     cfg: ObservationConfig,
+    *,
+    near_m: float = 0.0,
 ) -> dict[str, NDArray[Any]]:
     """The fused model's fields of the observation: ``memory_situation_probs``,
     ``memory_critical_regions``, ``memory_raster``.
@@ -226,6 +336,7 @@ def pack_memory(
         seen: The floor seen so far in the episode (a shapely geometry, world frame).
         robot_pose: ``(x_m, y_m, heading_rad)`` of the robot's centre, world frame.
         cfg: K, R, raster size and extent, feature range.
+        near_m: The blind band of the latest view, metres.
 
     Returns:
         New arrays: (K,) float32, (K * R * F,) float32, (S, S, 4) uint8.
@@ -233,5 +344,5 @@ def pack_memory(
     return {
         "memory_situation_probs": _situation_probs(model, cfg),
         "memory_critical_regions": _region_table(model, robot_pose, cfg).reshape(-1),
-        "memory_raster": rasterize_memory(model, seen, robot_pose, cfg),
+        "memory_raster": rasterize_memory(model, seen, robot_pose, cfg, near_m=near_m),
     }

@@ -15,8 +15,9 @@ S`` metres. Viewed as RGB: red occupancy, green doubt, blue unobserved. Channels
    the narrowest relation drawn as a line so thin regions are not lost; where regions overlap the
    larger doubt wins.
 2. **Unobserved**: 255 in the occluded area (behind obstacles within the field of view and range,
-   ``model.occluded``), 128 outside the field of view or beyond the range, 0 where the floor was
-   seen free.
+   ``model.occluded``), 128 outside the field of view, beyond the range or in the blind band
+   below the image (the floor within ``EnvConfig.blind_range_m`` of the head), 0 where the floor
+   was seen free.
 
 The raster of the fused model (``obs["memory_raster"]``, :func:`rasterize_memory`) has these
 three channels, drawn from the fused model, and a fourth:
@@ -24,6 +25,10 @@ three channels, drawn from the fused model, and a fourth:
 3. **Unknown**: 255 where the floor has never been seen in the episode (outside the memory's
    seen area, so also the floor near the robot that no view has covered), 0 where it has; a
    pixel the seen area's boundary crosses counts as unknown.
+
+The policy's raster (``observation_mode="policy"``, :func:`rasterize_policy`) has five
+channels that keep apart what channel 2 mixes: occupancy, doubt, seen free (this view),
+occluded, never seen (in the episode).
 
 All drawing is OpenCV (``fillPoly``, ``polylines``) with 4 bits of sub-pixel precision; no
 per-pixel Python loops.
@@ -47,7 +52,9 @@ __all__ = [
     "UNSEEN_VALUE",
     "rasterize_memory",
     "rasterize_model",
+    "rasterize_policy",
     "unknown_channel",
+    "view_wedge",
     "world_to_raster",
 ]
 
@@ -129,41 +136,60 @@ def _arc_offsets(half: float) -> FloatArray:
     return out
 
 
-def _unobserved(
-    model: EnvironmentModel, A: FloatArray, b: FloatArray, size: int
-) -> NDArray[np.uint8]:
-    """Channel 2: 128 outside the field of view, 0 seen, 255 occluded."""
-    out = np.full((size, size), UNSEEN_VALUE, dtype=np.uint8)
+def view_wedge(model: EnvironmentModel, near_m: float = 0.0) -> FloatArray:
+    """The floor the view of ``model`` can see, unoccluded: the sector of its field of view
+    between ``near_m`` (the blind band below the image) and its range, world metres.
+
+    Returns:
+        (n, 2) polygon vertices (the viewpoint then the range arc when ``near_m`` is 0; the
+        range arc then the near arc reversed otherwise; empty when ``near_m`` >= the range).
+    """
     obs = model.observation
     vx, vy, heading = (float(v) for v in obs.viewpoint)
     ang = heading + _arc_offsets(0.5 * float(obs.fov_rad))
-    wedge = np.empty((_ARC_POINTS + 1, 2))  # the viewpoint, then the range arc
-    wedge[0] = vx, vy
-    wedge[1:, 0] = vx + obs.max_range_m * np.cos(ang)
-    wedge[1:, 1] = vy + obs.max_range_m * np.sin(ang)
-    cv2.fillPoly(out, [_fixed(wedge, A, b)], 0, cv2.LINE_8, _SHIFT)
+    unit = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    far = np.array([vx, vy]) + obs.max_range_m * unit
+    if near_m <= 0.0:
+        return np.concatenate([[[vx, vy]], far])
+    if near_m >= obs.max_range_m:
+        return np.zeros((0, 2))
+    return np.concatenate([far, (np.array([vx, vy]) + near_m * unit)[::-1]])
+
+
+def _view_masks(
+    model: EnvironmentModel, A: FloatArray, b: FloatArray, size: int, near_m: float
+) -> tuple[NDArray[np.uint8], NDArray[np.uint8]]:
+    """``(visible, occluded)`` (S, S) uint8 masks (255 inside): the view's sector beyond the
+    blind band, less the occluded area; and the occluded area (``model.occluded``)."""
+    visible = np.zeros((size, size), dtype=np.uint8)
+    occluded = np.zeros((size, size), dtype=np.uint8)
+    wedge = view_wedge(model, near_m)
+    if wedge.shape[0] >= 3:
+        cv2.fillPoly(visible, [_fixed(wedge, A, b)], 255, cv2.LINE_8, _SHIFT)
     if model.occluded:
-        cv2.fillPoly(out, [_fixed(p, A, b) for p in model.occluded], 255, cv2.LINE_8, _SHIFT)
+        cv2.fillPoly(occluded, [_fixed(p, A, b) for p in model.occluded], 255, cv2.LINE_8, _SHIFT)
+        visible[occluded > 0] = 0
+    return visible, occluded
+
+
+def _unobserved(
+    model: EnvironmentModel, A: FloatArray, b: FloatArray, size: int, near_m: float
+) -> NDArray[np.uint8]:
+    """Channel 2: 128 outside the field of view and in the blind band, 0 seen, 255 occluded."""
+    visible, occluded = _view_masks(model, A, b, size, near_m)
+    out = np.full((size, size), UNSEEN_VALUE, dtype=np.uint8)
+    out[visible > 0] = 0
+    out[occluded > 0] = 255
     return out
 
 
-def rasterize_model(
-    model: EnvironmentModel, robot_pose: tuple[float, float, float], cfg: ObservationConfig
+def _model_channels(
+    model: EnvironmentModel, A: FloatArray, b: FloatArray, cfg: ObservationConfig
 ) -> NDArray[np.uint8]:
-    """The egocentric raster (S, S, 3) uint8 of ``model`` (channels in the module docstring).
-
-    Args:
-        model: The environment model (world frame).
-        robot_pose: ``(x_m, y_m, heading_rad)`` of the robot's centre, world frame.
-        cfg: Raster size and extent, and K (``num_situations``).
-
-    Returns:
-        A new uint8 array (S, S, 3), ``S = cfg.raster_size_px``.
-    """
+    """Channels 0 and 1 (expected occupancy, doubt) as a (2, S, S) uint8 array."""
     size = cfg.raster_size_px
-    A, b = world_to_raster(robot_pose, cfg)
     situations = model.situations[: cfg.num_situations]
-    out = np.zeros((3, size, size), dtype=np.uint8)
+    out = np.zeros((2, size, size), dtype=np.uint8)
     weights = np.array([s.probability for s in situations], dtype=np.float64)
     total = float(weights.sum())
     if situations and total > 0:
@@ -179,9 +205,70 @@ def rasterize_model(
                 cv2.scaleAdd(occ.astype(np.float32), w, acc[0], dst=acc[0])
                 cv2.scaleAdd(doubt.astype(np.float32), w, acc[1], dst=acc[1])
             np.rint(acc, out=acc)
-            out[:2] = np.clip(acc, 0, 255).astype(np.uint8)
-    out[2] = _unobserved(model, A, b, size)
-    raster: NDArray[np.uint8] = cv2.merge([out[0], out[1], out[2]])
+            out[:] = np.clip(acc, 0, 255).astype(np.uint8)
+    return out
+
+
+def rasterize_model(
+    model: EnvironmentModel,
+    robot_pose: tuple[float, float, float],
+    cfg: ObservationConfig,
+    *,
+    near_m: float = 0.0,
+) -> NDArray[np.uint8]:
+    """The egocentric raster (S, S, 3) uint8 of ``model`` (channels in the module docstring).
+
+    Args:
+        model: The environment model (world frame).
+        robot_pose: ``(x_m, y_m, heading_rad)`` of the robot's centre, world frame.
+        cfg: Raster size and extent, and K (``num_situations``).
+        near_m: The blind band: floor nearer to the viewpoint than this is not seen, metres
+            (``EnvConfig.blind_range_m``).
+
+    Returns:
+        A new uint8 array (S, S, 3), ``S = cfg.raster_size_px``.
+    """
+    A, b = world_to_raster(robot_pose, cfg)
+    two = _model_channels(model, A, b, cfg)
+    unobserved = _unobserved(model, A, b, cfg.raster_size_px, near_m)
+    raster: NDArray[np.uint8] = np.dstack([two[0], two[1], unobserved])
+    return raster
+
+
+def rasterize_policy(
+    model: EnvironmentModel,
+    never_seen: NDArray[np.uint8],
+    robot_pose: tuple[float, float, float],
+    cfg: ObservationConfig,
+    *,
+    near_m: float,
+) -> NDArray[np.uint8]:
+    """The policy's egocentric raster (S, S, 5) uint8 (``observation_mode="policy"``).
+
+    Channels: 0 expected occupancy and 1 doubt (as :func:`rasterize_model`); 2 **seen free**:
+    255 where this view sees the floor (in the field of view, beyond the blind band
+    ``near_m``, within range, not occluded) and no obstacle line is drawn; 3 **occluded**: 255
+    in ``model.occluded``; 4 **never seen**: ``never_seen`` (255 where no view of the episode
+    has seen the floor, :class:`~stereo_nav_env.seen.SeenFloor`).
+
+    Args:
+        model: The latest view's model (world frame).
+        never_seen: (S, S) uint8, 255 where the floor was never seen (egocentric, as here).
+        robot_pose: ``(x_m, y_m, heading_rad)`` of the robot's centre, world frame.
+        cfg: Raster size and extent, and K (``num_situations``).
+        near_m: The blind band, metres.
+
+    Returns:
+        A new uint8 array (S, S, 5).
+    """
+    size = cfg.raster_size_px
+    if never_seen.shape != (size, size):
+        raise ValueError(f"never_seen must have shape {(size, size)}, got {never_seen.shape}")
+    A, b = world_to_raster(robot_pose, cfg)
+    two = _model_channels(model, A, b, cfg)
+    visible, occluded = _view_masks(model, A, b, size, near_m)
+    visible[two[0] > 0] = 0
+    raster: NDArray[np.uint8] = np.dstack([two[0], two[1], visible, occluded, never_seen])
     return raster
 
 
@@ -227,6 +314,8 @@ def rasterize_memory(
     seen: shapely.Geometry,
     robot_pose: tuple[float, float, float],
     cfg: ObservationConfig,
+    *,
+    near_m: float = 0.0,
 ) -> NDArray[np.uint8]:
     """The egocentric raster (S, S, 4) uint8 of the fused ``model`` and its ``seen`` floor.
 
@@ -238,11 +327,12 @@ def rasterize_memory(
         seen: The floor seen so far in the episode, world frame.
         robot_pose: ``(x_m, y_m, heading_rad)`` of the robot's centre, world frame.
         cfg: Raster size and extent, and K (``num_situations``).
+        near_m: The blind band of the latest view, metres.
 
     Returns:
         A new uint8 array (S, S, 4), ``S = cfg.raster_size_px``.
     """
-    three = rasterize_model(model, robot_pose, cfg)
+    three = rasterize_model(model, robot_pose, cfg, near_m=near_m)
     raster: NDArray[np.uint8] = np.concatenate(
         [three, unknown_channel(seen, robot_pose, cfg)[..., None]], axis=2
     )

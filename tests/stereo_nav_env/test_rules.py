@@ -98,7 +98,7 @@ def test_presets_set_the_rules_and_explicit_keywords_override_them() -> None:
     v1 = EnvConfig.from_kwargs(rules="v1")
     assert v1.rules_dict() == {"preset": "v1", **RULES["v1"]}
     assert not v1.terminate_on_collision and v1.rewards.collision_penalty == 0.1
-    assert gym.spec("StereoNav-v1").kwargs == {"rules": "v1"}
+    assert gym.spec("StereoNav-v1").kwargs == {"rules": "v1", "observation_mode": "policy"}
     custom = EnvConfig.from_kwargs(rules="v1", collision_penalty=1.0, stuck_steps=50)
     assert custom.rules_dict()["preset"] == "custom"
     assert custom.rewards.collision_penalty == 1.0 and custom.stuck_steps == 50

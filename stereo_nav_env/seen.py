@@ -1,0 +1,95 @@
+"""The floor seen so far in an episode, on a world-frame grid (the policy raster's channel 4).
+
+:class:`SeenFloor` marks, view after view, the floor each view sees (its field of view beyond
+the blind band and within range, less the occluded area: :func:`~stereo_nav_env.raster.
+view_wedge` and ``model.occluded``), and cuts the egocentric "never seen" channel out of it with
+one ``cv2.warpAffine``. Floor outside the scene's bounds is never seen. Frames: world, metres;
+grid row ``i``, column ``j`` is the cell ``[xmin + j c, xmin + (j + 1) c) x [ymin + i c, ...)``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from modeling.model import EnvironmentModel
+from stereo_nav_env.config import ObservationConfig
+from stereo_nav_env.raster import UNKNOWN_VALUE, view_wedge, world_to_raster
+
+__all__ = ["SeenFloor"]
+
+_SHIFT = 4
+_MAX_CELLS = 4096
+"""Largest grid side: a scene of 200 m at 5 cm cells (larger scenes get coarser cells)."""
+
+
+class SeenFloor:
+    """Which floor cells some view of the episode has seen.
+
+    Args:
+        bounds: ``(xmin, ymin, xmax, ymax)`` of the scene, metres.
+        cell_m: Grid cell side, metres (coarsened so no side exceeds 4,096 cells).
+
+    Raises:
+        ValueError: Bounds not increasing or a non-positive cell.
+    """
+
+    def __init__(self, bounds: tuple[float, float, float, float], cell_m: float) -> None:
+        xmin, ymin, xmax, ymax = (float(v) for v in bounds)
+        if not (xmin < xmax and ymin < ymax):
+            raise ValueError(f"bounds must satisfy xmin < xmax and ymin < ymax, got {bounds}")
+        if not (math.isfinite(cell_m) and cell_m > 0.0):
+            raise ValueError(f"cell_m must be a positive number, got {cell_m!r}")
+        cell = max(float(cell_m), max(xmax - xmin, ymax - ymin) / _MAX_CELLS)
+        self.origin = (xmin, ymin)
+        self.cell_m = cell
+        shape = (math.ceil((ymax - ymin) / cell), math.ceil((xmax - xmin) / cell))
+        self.grid: NDArray[np.uint8] = np.zeros(shape, dtype=np.uint8)
+        """255 where seen, 0 where never seen; (rows along y, columns along x)."""
+
+    def _to_grid(self, points: NDArray[np.float64]) -> NDArray[np.int32]:
+        """World points (n, 2) to fixed-point grid coordinates (column, row) for OpenCV."""
+        pix = (points - np.asarray(self.origin)) / self.cell_m - 0.5
+        out: NDArray[np.int32] = np.rint(np.clip(pix, -1e5, 1e5) * (1 << _SHIFT)).astype(np.int32)
+        return out
+
+    def mark(self, model: EnvironmentModel, near_m: float) -> None:
+        """Mark the floor the view of ``model`` sees (beyond ``near_m`` of its viewpoint)."""
+        wedge = view_wedge(model, near_m)
+        if wedge.shape[0] < 3:
+            return
+        view = np.zeros_like(self.grid)
+        cv2.fillPoly(view, [self._to_grid(wedge)], 255, cv2.LINE_8, _SHIFT)
+        if model.occluded:
+            polys = [self._to_grid(np.asarray(p)) for p in model.occluded]
+            cv2.fillPoly(view, polys, 0, cv2.LINE_8, _SHIFT)
+        np.bitwise_or(self.grid, view, out=self.grid)
+
+    def never_seen(
+        self, robot_pose: tuple[float, float, float], cfg: ObservationConfig
+    ) -> NDArray[np.uint8]:
+        """The egocentric (S, S) uint8 channel: 255 where never seen, 0 where seen.
+
+        Args:
+            robot_pose: ``(x_m, y_m, heading_rad)`` of the robot's centre, world frame.
+            cfg: Raster size and extent (:func:`~stereo_nav_env.raster.world_to_raster`).
+        """
+        A, b = world_to_raster(robot_pose, cfg)
+        inv = np.linalg.inv(A)  # raster pixel -> world
+        M = np.empty((2, 3))
+        M[:, :2] = inv / self.cell_m
+        M[:, 2] = (-inv @ b - np.asarray(self.origin)) / self.cell_m - 0.5
+        size = cfg.raster_size_px
+        seen = cv2.warpAffine(
+            self.grid,
+            M,
+            (size, size),
+            flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
+            borderMode=cv2.BORDER_CONSTANT,
+            borderValue=0,
+        )
+        out: NDArray[np.uint8] = np.where(seen > 0, 0, UNKNOWN_VALUE).astype(np.uint8)
+        return out
