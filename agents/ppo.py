@@ -1,4 +1,5 @@
-"""``ppo:PATH``: a stable-baselines3 PPO policy as an :class:`~agents.base.Agent`.
+"""``ppo:PATH``: a stable-baselines3 PPO (or sb3-contrib RecurrentPPO) policy as an
+:class:`~agents.base.Agent`.
 
 torch and stable-baselines3 are imported when the agent is built, never when ``agents`` is.
 """
@@ -17,7 +18,8 @@ __all__ = ["PPOAgent"]
 
 
 class PPOAgent(Agent):
-    """Acts with a saved PPO model (``model.predict``).
+    """Acts with a saved PPO or RecurrentPPO model (``model.predict``; a recurrent policy's
+    LSTM state is carried from step to step and cleared at every episode's start).
 
     Args:
         path: The ``.zip`` written by ``PPO.save`` (the suffix may be left out).
@@ -39,12 +41,33 @@ class PPOAgent(Agent):
             p = p.with_suffix(".zip")
         if not p.is_file():
             raise ValueError(f"path must name a saved PPO model (.zip), got {str(path)!r}")
-        from stable_baselines3 import PPO
+        from stable_baselines3.common.save_util import load_from_zip_file
 
+        data, _, _ = load_from_zip_file(p, device=device, load_data=True)
+        policy = (data or {}).get("policy_class")
+        self.recurrent = "Recurrent" in getattr(policy, "__name__", "")
+        if self.recurrent:
+            from sb3_contrib import RecurrentPPO
+
+            self.model: Any = RecurrentPPO.load(str(p), device=device)
+        else:
+            from stable_baselines3 import PPO
+
+            self.model = PPO.load(str(p), device=device)
         self.path = p
         self.deterministic = deterministic
-        self.model = PPO.load(str(p), device=device)
+        self._state: Any = None
+        self._start = np.ones((1,), dtype=bool)
+
+    def _reset(self, seed: int | None) -> None:
+        self._state, self._start = None, np.ones((1,), dtype=bool)
 
     def _act(self, obs: Any, info: dict[str, Any]) -> NDArray[np.floating]:
-        action, _ = self.model.predict(obs, deterministic=self.deterministic)
+        if self.recurrent:
+            action, self._state = self.model.predict(
+                obs, state=self._state, episode_start=self._start, deterministic=self.deterministic
+            )
+            self._start = np.zeros((1,), dtype=bool)
+        else:
+            action, _ = self.model.predict(obs, deterministic=self.deterministic)
         return np.asarray(action, dtype=np.float32).reshape(3)

@@ -69,7 +69,7 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
         episodes=args.episodes,
         seed=args.seed,
         max_steps=args.max_steps,
-        env_kwargs={"diagnostics": False, "perception": args.perception}
+        env_kwargs={"diagnostics": False, "memory": False, "perception": args.perception}
         | ({"terminate_on_collision": True} if args.terminate_on_collision else {}),
         **kw,
     )

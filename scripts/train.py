@@ -1,12 +1,17 @@
-"""Train PPO (stable-baselines3, MultiInputPolicy) on StereoNav-v1.
+"""Train PPO (stable-baselines3; or sb3-contrib's RecurrentPPO) on StereoNav-v1.
 
-    python scripts/train.py --timesteps N [--n-envs K] --out DIR [--resume CHECKPOINT]
-        [--eval-freq N] [--checkpoint-freq N] [--seed S] [--scenario NAME] [--n-steps N]
-        [--batch-size N] [--max-minutes M]
+    python scripts/train.py --timesteps N --out DIR [--algo ppo|recurrent-ppo] [--n-envs K]
+        [--perception stereo|surrogate] [--scenario NAME] [--curriculum [FAMILY ...]]
+        [--curriculum-threshold P] [--resume CHECKPOINT] [--eval-freq N] [--checkpoint-freq N]
+        [--seed S] [--rollout-steps N] [--batch-size N] [--n-epochs N] [--ent-coef C]
+        [--max-minutes M]
 
 Writes DIR/ppo_final.zip, DIR/checkpoints/, DIR/best/, DIR/eval/, DIR/tb/ (TensorBoard),
-DIR/curve.csv, DIR/learning_curve.png and DIR/rules.json (the episode rules, those of
-evaluate.py). The logic is in :mod:`agents.training`.
+DIR/curve.csv, DIR/learning_curve.png, DIR/rules.json (the episode rules, those of
+evaluate.py) and DIR/summary.json (steps per second, the curriculum's stages). The defaults
+(one env per core, 2,048-step rollouts, minibatch 256, 4 epochs, entropy 0.01, 128 x 128,
+normalised rewards) are :class:`agents.training.TrainConfig`'s; the logic is in
+:mod:`agents.training`.
 """
 
 from __future__ import annotations
@@ -17,14 +22,33 @@ import pathlib
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
-from agents.training import TrainConfig, TrainResult, train_ppo
+from agents.training import ALGOS, CURRICULUM, TrainConfig, TrainResult, train_ppo
 
 
 def train_config(argv: list[str] | None = None) -> TrainConfig:
     """The :class:`TrainConfig` of the command line ``argv``."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--timesteps", type=int, required=True, help="environment steps")
-    parser.add_argument("--n-envs", type=int, default=1, help="parallel environments")
+    parser.add_argument("--algo", choices=ALGOS, default="ppo", help="algorithm")
+    parser.add_argument(
+        "--n-envs", type=int, default=None, help="parallel environments (default: one per core)"
+    )
+    parser.add_argument(
+        "--perception",
+        choices=("stereo", "surrogate"),
+        default="stereo",
+        help="the training envs' perception (surrogate: no rendering, several times faster)",
+    )
+    parser.add_argument(
+        "--curriculum",
+        nargs="*",
+        default=None,
+        metavar="FAMILY",
+        help=f"scene families in order (no list: {' '.join(CURRICULUM)})",
+    )
+    parser.add_argument(
+        "--curriculum-threshold", type=float, default=0.8, help="rolling success to advance"
+    )
     parser.add_argument("--out", type=pathlib.Path, required=True, help="output folder")
     parser.add_argument("--resume", type=pathlib.Path, help="checkpoint .zip to continue from")
     parser.add_argument("--eval-freq", type=int, default=10_000, help="timesteps between evals")
@@ -34,27 +58,43 @@ def train_config(argv: list[str] | None = None) -> TrainConfig:
     )
     parser.add_argument("--seed", type=int, default=0, help="seed")
     parser.add_argument("--scenario", default="random", help="map name or scene family")
-    parser.add_argument("--n-steps", type=int, default=512, help="PPO rollout steps per env")
-    parser.add_argument("--batch-size", type=int, default=64, help="PPO minibatch size")
+    parser.add_argument(
+        "--rollout-steps", type=int, default=2048, help="PPO rollout steps over all envs"
+    )
+    parser.add_argument("--batch-size", type=int, default=256, help="PPO minibatch size")
+    parser.add_argument("--n-epochs", type=int, default=4, help="PPO epochs per update")
+    parser.add_argument("--ent-coef", type=float, default=0.01, help="entropy bonus")
     parser.add_argument(
         "--max-minutes", type=float, default=None, help="wall-clock budget (stops and saves)"
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
+    curriculum = () if args.curriculum is None else tuple(args.curriculum or CURRICULUM)
+    extra = {} if args.n_envs is None else {"n_envs": args.n_envs}
     return TrainConfig(
         timesteps=args.timesteps,
-        n_envs=args.n_envs,
+        algo=args.algo,
         out_dir=args.out,
         resume=args.resume,
         eval_freq=args.eval_freq,
         eval_episodes=args.eval_episodes,
         checkpoint_freq=args.checkpoint_freq,
         seed=args.seed,
-        n_steps=args.n_steps,
+        rollout_steps=args.rollout_steps,
         batch_size=args.batch_size,
-        env_kwargs={"scenario": args.scenario, "diagnostics": False},
+        n_epochs=args.n_epochs,
+        ent_coef=args.ent_coef,
+        curriculum=curriculum,
+        curriculum_threshold=args.curriculum_threshold,
+        env_kwargs={
+            "scenario": args.scenario,
+            "diagnostics": False,
+            "memory": False,
+            "perception": args.perception,
+        },
         max_minutes=args.max_minutes,
         progress=not args.no_progress,
+        **extra,
     )
 
 

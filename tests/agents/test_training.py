@@ -1,4 +1,5 @@
-"""A 256-step PPO smoke run: it trains, checkpoints, writes its curve, saves, loads as an agent."""
+"""256-step smoke runs of PPO and RecurrentPPO: each trains, checkpoints, writes its curve and
+summary, saves and loads as an agent; the curriculum advances on the rolling success rate."""
 
 from __future__ import annotations
 
@@ -31,15 +32,18 @@ def _tiny_run(tmp_path, small_map, **config: object) -> TrainConfig:
     )
 
 
-def test_ppo_smoke_run_trains_saves_and_acts(tmp_path, small_map) -> None:
+@pytest.mark.parametrize("algo", ["ppo", "recurrent-ppo"])
+def test_smoke_run_trains_saves_and_acts(tmp_path, small_map, algo: str) -> None:
     kwargs = _small_map_env(small_map)
     result = train_ppo(
         _tiny_run(
             tmp_path,
             small_map,
+            algo=algo,
             timesteps=256,
-            n_steps=64,
+            rollout_steps=64,
             n_epochs=1,
+            net_arch=(32, 32),
             eval_freq=128,
             eval_episodes=1,
             checkpoint_freq=128,
@@ -60,6 +64,9 @@ def test_ppo_smoke_run_trains_saves_and_acts(tmp_path, small_map) -> None:
         rows = list(csv.DictReader(fh))
     assert len(rows) == result.episodes >= 256 // 50
     assert all(float(r["length"]) <= 50 for r in rows)
+    summary = json.loads((tmp_path / "ppo" / "summary.json").read_text())
+    assert summary["algo"] == algo and summary["timesteps"] == 256
+    assert summary["steps_per_s"] > 0 and summary["episodes"] == len(rows)
 
     env = gym.make("StereoNav-v1", **kwargs)
     obs, info = env.reset(seed=0)
@@ -69,6 +76,84 @@ def test_ppo_smoke_run_trains_saves_and_acts(tmp_path, small_map) -> None:
     env.close()
     assert action.shape == (3,) and np.all(np.abs(action) <= 1)
     assert agent.name == f"ppo:{result.model_path}"
+    assert agent.recurrent == (algo == "recurrent-ppo")
+    assert (agent._state is not None) == agent.recurrent  # the LSTM state carried on
+    agent.reset(env, seed=0)
+    assert agent._state is None
+
+
+class _FakeVecEnv:
+    """Records ``env_method`` calls (the curriculum's ``set_scenario``)."""
+
+    def __init__(self) -> None:
+        self.calls: list[tuple[str, tuple[object, ...]]] = []
+
+    def env_method(self, name: str, *args: object) -> None:
+        self.calls.append((name, args))
+
+
+class _FakeModel:
+    def __init__(self, env: _FakeVecEnv) -> None:
+        self.num_timesteps = 0
+        self.logger = None
+        self._env = env
+
+    def get_env(self) -> _FakeVecEnv:
+        return self._env
+
+
+def test_the_curriculum_advances_when_the_rolling_success_rate_passes_the_bar(tmp_path) -> None:
+    from agents.training import _callbacks
+
+    cfg = TrainConfig(
+        timesteps=10,
+        out_dir=tmp_path,
+        curriculum=("open", "sparse", "room"),
+        curriculum_threshold=0.75,
+        curriculum_window=4,
+    )
+    assert cfg.gym_kwargs["scenario"] == "open" and cfg.env_config().scenario == "open"
+    stages: list[dict[str, object]] = []
+    train_env, eval_env = _FakeVecEnv(), _FakeVecEnv()
+    (callback,) = [
+        c for c in _callbacks(cfg, [], stages, eval_env) if "Curriculum" in type(c).__name__
+    ]
+    model = _FakeModel(train_env)
+    callback.init_callback(model)
+    callback.on_training_start({}, {})
+
+    def episodes(*successes: bool) -> None:
+        for ok in successes:
+            model.num_timesteps += 10
+            callback.update_locals({"infos": [{"episode": {"r": 0.0}, "is_success": ok}]})
+            callback.on_step()
+
+    episodes(True, True, False)  # 3 episodes: the window is not full yet
+    assert train_env.calls == [] and len(stages) == 1
+    episodes(False)  # 2 of 4 = 0.5 < 0.75
+    episodes(True, True)  # the last 4: F, F, T, T = 0.5
+    assert train_env.calls == []
+    episodes(True)  # F, T, T, T = 0.75: advance
+    assert train_env.calls == [("set_scenario", ("sparse",))] == eval_env.calls
+    assert [s["scenario"] for s in stages] == ["open", "sparse"] and stages[1]["timesteps"] == 70
+    episodes(True, True, True)  # a new stage starts with an empty window
+    assert len(stages) == 2
+    episodes(True)
+    assert [s["scenario"] for s in stages] == ["open", "sparse", "room"]
+    episodes(*[True] * 8)  # the last stage stays
+    assert len(train_env.calls) == 2
+
+
+def test_train_config_defaults_fit_this_machine(tmp_path) -> None:
+    cfg = TrainConfig(timesteps=10, out_dir=tmp_path, n_envs=2)
+    assert (cfg.n_steps, cfg.batch_size, cfg.n_epochs, cfg.ent_coef) == (1024, 256, 4, 0.01)
+    assert cfg.net_arch == (128, 128) and cfg.normalize_reward and cfg.torch_threads == 1
+    with pytest.raises(ValueError, match="algo"):
+        TrainConfig(timesteps=10, out_dir=tmp_path, algo="dqn")
+    with pytest.raises(ValueError, match="curriculum"):
+        TrainConfig(timesteps=10, out_dir=tmp_path, curriculum=("open", "moon"))
+    with pytest.raises(ValueError, match="curriculum_threshold"):
+        TrainConfig(timesteps=10, out_dir=tmp_path, curriculum_threshold=0.0)
 
 
 def test_train_config_rejects_bad_values(tmp_path) -> None:
@@ -86,7 +171,7 @@ def test_a_spent_time_budget_stops_training_and_still_saves(tmp_path, small_map)
             tmp_path,
             small_map,
             timesteps=100_000,
-            n_steps=32,
+            rollout_steps=32,
             eval_freq=0,
             checkpoint_freq=0,
             max_minutes=1e-6,

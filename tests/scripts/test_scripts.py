@@ -75,9 +75,9 @@ def test_demo_writes_gif_figure_and_summary(
 
 def test_train_runs_end_to_end(tmp_path: pathlib.Path, small_map: pathlib.Path) -> None:
     result = _script("train").main(
-        ["--timesteps", "64", "--n-envs", "1", "--out", str(tmp_path / "ppo"), "--n-steps", "32",
-         "--batch-size", "32", "--eval-freq", "0", "--checkpoint-freq", "0",
-         "--scenario", str(small_map), "--no-progress"]
+        ["--timesteps", "64", "--n-envs", "1", "--out", str(tmp_path / "ppo"),
+         "--rollout-steps", "32", "--batch-size", "32", "--eval-freq", "0",
+         "--checkpoint-freq", "0", "--scenario", str(small_map), "--no-progress"]
     )  # fmt: skip
     assert result.model_path.is_file() and result.timesteps == 64
     assert (tmp_path / "ppo" / "learning_curve.png").is_file()
