@@ -229,7 +229,7 @@ def _env_factory(kwargs: dict[str, Any], seed: int) -> Callable[[], Any]:
 
         import stereo_nav_env  # noqa: F401  (registers the ids)
 
-        env = Monitor(gym.make(ENV_ID, **kwargs), info_keywords=("is_success",))
+        env: Any = Monitor(gym.make(ENV_ID, **kwargs), info_keywords=("is_success",))
         env.reset(seed=seed)
         env.action_space.seed(seed)
         return env

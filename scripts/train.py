@@ -103,6 +103,8 @@ def main(argv: list[str] | None = None) -> TrainResult:
     result = train_ppo(train_config(argv))
     print(f"model: {result.model_path} ({result.timesteps} timesteps, {result.episodes} episodes)")
     print(f"learning curve: {result.curve_png}")
+    summary = result.model_path.parent / "summary.json"
+    print(f"summary (steps per second, curriculum stages): {summary}")
     return result
 
 
