@@ -15,9 +15,10 @@ $(PY):
 	$(PIP) install --quiet --upgrade pip
 
 # The pinned CPU build of torch first: a bare `torch` requirement would pull a CUDA build.
+# The rllib extra (Ray RLlib) is installed too: its smoke test runs in CI.
 $(STAMP): pyproject.toml | $(PY)
 	$(PIP) install --quiet $(TORCH_CPU)
-	$(PIP) install --quiet -e '.[dev]'
+	$(PIP) install --quiet -e '.[dev,rllib]'
 	touch $(STAMP)
 
 demo: $(STAMP)

@@ -534,7 +534,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self.last_timings_ms = watch.laps
         return obs, reward, terminated, truncated, info
 
-    def render(self) -> UInt8Image | None:
+    def render(self) -> UInt8Image | None:  # type: ignore[override]  # gymnasium 1.2.2: a TypeVar
         """``rgb_array``: a 480 x 960 RGB frame (world from above, model overlay, left image)."""
         if self.render_mode != "rgb_array":
             return None
@@ -573,7 +573,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-        super().close()
+        super().close()  # type: ignore[no-untyped-call]  # gymnasium 1.2.2
 
     # ------------------------------------------------------------------ pickling
     def __getstate__(self) -> dict[str, Any]:
