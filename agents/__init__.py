@@ -9,6 +9,8 @@
 ``planner``    expected cost over situations, with looking / approaching by value of information
 ``oracle``     shortest route on the true obstacle outlines (the ceiling)
 ``ppo:PATH``   a stable-baselines3 PPO model saved at ``PATH`` (torch imported only then)
+``rllib:PATH`` an RLlib checkpoint folder at ``PATH`` (``train.py --backend rllib``; ray
+               imported only then)
 =============  ===============================================================================
 """
 
@@ -20,7 +22,7 @@ from agents.base import Agent, is_look
 
 __all__ = ["AGENT_NAMES", "Agent", "is_look", "make_agent"]
 
-AGENT_NAMES = ("random", "greedy", "cautious", "planner", "oracle", "ppo:PATH")
+AGENT_NAMES = ("random", "greedy", "cautious", "planner", "oracle", "ppo:PATH", "rllib:PATH")
 
 
 def make_agent(name: str, env: Any = None, **kwargs: Any) -> Agent:
@@ -52,6 +54,10 @@ def make_agent(name: str, env: Any = None, **kwargs: Any) -> Agent:
         from agents.ppo import PPOAgent
 
         agent = PPOAgent(name[4:], **kwargs)
+    elif name.startswith("rllib:") and len(name) > 6:
+        from agents.rllib_agent import RLlibAgent
+
+        agent = RLlibAgent(name[6:], **kwargs)
     else:
         raise ValueError(f"unknown agent {name!r}; known: {list(AGENT_NAMES)}")
     agent.name = name

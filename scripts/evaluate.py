@@ -8,7 +8,7 @@
 The suite runs under the StereoNav-v1 rules; each agent's JSON entry records them ("rules") and
 carries 95 % bootstrap intervals of its rates (keys ending in "_ci").
 
-Agent names: random, greedy, cautious, planner, oracle, ppo:PATH. The logic is in
+Agent names: random, greedy, cautious, planner, oracle, ppo:PATH, rllib:PATH. The logic is in
 :mod:`agents.evaluation`.
 """
 

@@ -51,7 +51,15 @@ def test_random_agent_completes_an_episode(small_map) -> None:
 
 
 def test_registry_names_and_errors() -> None:
-    assert set(AGENT_NAMES) == {"random", "greedy", "cautious", "planner", "oracle", "ppo:PATH"}
+    assert set(AGENT_NAMES) == {
+        "random",
+        "greedy",
+        "cautious",
+        "planner",
+        "oracle",
+        "ppo:PATH",
+        "rllib:PATH",
+    }
     for name in ("random", "greedy", "cautious", "planner", "oracle"):
         agent = make_agent(name)
         assert isinstance(agent, Agent) and agent.name == name
