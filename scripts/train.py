@@ -4,7 +4,11 @@
         [--perception stereo|surrogate] [--scenario NAME] [--curriculum [FAMILY ...]]
         [--curriculum-threshold P] [--resume CHECKPOINT] [--eval-freq N] [--checkpoint-freq N]
         [--seed S] [--rollout-steps N] [--batch-size N] [--n-epochs N] [--ent-coef C]
-        [--max-minutes M]
+        [--max-minutes M] [--backend sb3|rllib] [--num-env-runners N] [--address RAY]
+
+--backend rllib trains with Ray RLlib instead (agents.rllib_backend, docs/rllib.md): N env
+runner processes, on a local Ray or on the cluster at --address; it writes DIR/checkpoint/
+(evaluate it as rllib:DIR/checkpoint), DIR/tb/, DIR/results.jsonl and DIR/rules.json.
 
 Writes DIR/ppo_final.zip, DIR/checkpoints/, DIR/best/, DIR/eval/, DIR/tb/ (TensorBoard),
 DIR/curve.csv, DIR/learning_curve.png, DIR/rules.json (the episode rules, those of
@@ -22,7 +26,24 @@ import pathlib
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
+from agents.rllib_backend import RLlibOptions, RLlibResult, train_rllib
 from agents.training import ALGOS, CURRICULUM, TrainConfig, TrainResult, train_ppo
+
+
+def _add_backend_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--backend", choices=("sb3", "rllib"), default="sb3", help="trainer")
+    parser.add_argument(
+        "--num-env-runners", type=int, default=2, help="rllib: env runner processes"
+    )
+    parser.add_argument("--address", default=None, help="rllib: Ray cluster to join (HEAD:6379)")
+
+
+def backend_options(argv: list[str] | None = None) -> tuple[str, RLlibOptions]:
+    """The ``--backend`` of the command line ``argv`` and its RLlib options."""
+    parser = argparse.ArgumentParser(add_help=False)
+    _add_backend_arguments(parser)
+    args, _ = parser.parse_known_args(argv)
+    return args.backend, RLlibOptions(num_env_runners=args.num_env_runners, address=args.address)
 
 
 def train_config(argv: list[str] | None = None) -> TrainConfig:
@@ -68,6 +89,7 @@ def train_config(argv: list[str] | None = None) -> TrainConfig:
         "--max-minutes", type=float, default=None, help="wall-clock budget (stops and saves)"
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _add_backend_arguments(parser)
     args = parser.parse_args(argv)
     curriculum = () if args.curriculum is None else tuple(args.curriculum or CURRICULUM)
     extra = {} if args.n_envs is None else {"n_envs": args.n_envs}
@@ -98,9 +120,18 @@ def train_config(argv: list[str] | None = None) -> TrainConfig:
     )
 
 
-def main(argv: list[str] | None = None) -> TrainResult:
+def main(argv: list[str] | None = None) -> TrainResult | RLlibResult:
     """Parse the arguments and train; returns what was written."""
-    result = train_ppo(train_config(argv))
+    cfg = train_config(argv)
+    backend, options = backend_options(argv)
+    if backend == "rllib":
+        rllib = train_rllib(cfg, options)
+        print(
+            f"checkpoint: {rllib.checkpoint} ({rllib.timesteps} timesteps, "
+            f"{rllib.steps_per_s:.1f} steps/s on {options.num_env_runners} env runners)"
+        )
+        return rllib
+    result = train_ppo(cfg)
     print(f"model: {result.model_path} ({result.timesteps} timesteps, {result.episodes} episodes)")
     print(f"learning curve: {result.curve_png}")
     summary = result.model_path.parent / "summary.json"
