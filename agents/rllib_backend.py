@@ -9,11 +9,14 @@ env-to-module connectors (:mod:`agents.rllib_connectors`): ``ScaleBytes`` (every
 to ``[0, 1]`` float32, as stable-baselines3 scales images) and RLlib's ``FlattenObservations``
 (every component to one vector). Neither names an observation key.
 
-How the :class:`TrainConfig` fields map onto RLlib's ``PPOConfig``: ``n_steps`` is the rollout
-length per runner, the train batch is ``n_steps * num_env_runners`` (sb3's ``n_steps * n_envs``),
-``batch_size`` the minibatch, ``n_epochs``, ``learning_rate``, ``gamma`` and ``seed`` as named.
-``eval_freq`` and ``resume`` are for the sb3 backend only (``evaluate.py --agent rllib:PATH``
-evaluates a checkpoint).
+How the :class:`TrainConfig` fields map onto RLlib's ``PPOConfig``: the train batch is
+``rollout_steps`` (sb3's rollout over all envs), each runner's rollout ``rollout_steps //
+num_env_runners``; ``batch_size`` is the minibatch; ``n_epochs``, ``learning_rate``, ``gamma``,
+``ent_coef`` (RLlib's ``entropy_coeff``), ``net_arch`` (the MLP's hidden layers, the policy's and
+the value function's), ``seed`` and ``torch_threads`` (the learner's, in the driver) as named.
+``curriculum`` and ``algo="recurrent-ppo"`` are refused; ``eval_freq``, ``resume`` and
+``normalize_reward`` are the sb3 backend's (``evaluate.py --agent rllib:PATH`` evaluates a
+checkpoint; rewards are not normalised).
 
 :func:`train_rllib` writes in ``OUT``:
 
@@ -67,13 +70,11 @@ class RLlibOptions:
         num_env_runners: Env runner processes (0: sample in the driver process).
         address: A running Ray cluster to join (``ray.init(address=...)``, e.g. ``HEAD:6379``);
             ``None``: start a local Ray sized to the runners.
-        hidden: Hidden layer sizes of the policy and value MLPs.
         log_to_driver: Forward the workers' output to this process.
     """
 
     num_env_runners: int = 2
     address: str | None = None
-    hidden: tuple[int, ...] = (256, 256)
     log_to_driver: bool = True
 
     def __post_init__(self) -> None:
@@ -82,12 +83,6 @@ class RLlibOptions:
             raise ValueError(f"num_env_runners must be a non-negative integer, got {n!r}")
         if self.address is not None and (not isinstance(self.address, str) or not self.address):
             raise ValueError(f"address must be a non-empty string, got {self.address!r}")
-        hidden = tuple(self.hidden)
-        if not hidden or any(
-            isinstance(h, bool) or not isinstance(h, int) or h < 1 for h in hidden
-        ):
-            raise ValueError(f"hidden must be positive integers, got {self.hidden!r}")
-        object.__setattr__(self, "hidden", hidden)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -141,17 +136,17 @@ def ppo_config(cfg: TrainConfig, options: RLlibOptions) -> Any:
     register_env(RLLIB_ENV, make_env)
 
     runners = options.num_env_runners
-    train_batch = cfg.n_steps * max(1, runners)
+    train_batch = cfg.rollout_steps
     return (
         PPOConfig()
         .api_stack(enable_rl_module_and_learner=True, enable_env_runner_and_connector_v2=True)
         .framework("torch")
-        .environment(env=RLLIB_ENV, env_config=dict(cfg.env_kwargs))
+        .environment(env=RLLIB_ENV, env_config=cfg.gym_kwargs)
         .env_runners(
             num_env_runners=runners,
             num_envs_per_env_runner=1,
             num_cpus_per_env_runner=1,
-            rollout_fragment_length=cfg.n_steps,
+            rollout_fragment_length=max(1, train_batch // max(1, runners)),
             env_to_module_connector=env_to_module,
         )
         .learners(num_learners=0)
@@ -161,10 +156,11 @@ def ppo_config(cfg: TrainConfig, options: RLlibOptions) -> Any:
             num_epochs=cfg.n_epochs,
             lr=cfg.learning_rate,
             gamma=cfg.gamma,
+            entropy_coeff=cfg.ent_coef,
         )
         .rl_module(
             model_config=DefaultModelConfig(
-                fcnet_hiddens=list(options.hidden), fcnet_activation="tanh", vf_share_layers=False
+                fcnet_hiddens=list(cfg.net_arch), fcnet_activation="tanh", vf_share_layers=False
             )
         )
         .debugging(seed=cfg.seed, log_level="ERROR")
@@ -177,7 +173,7 @@ def rules_of(cfg: TrainConfig) -> dict[str, Any]:
 
     import stereo_nav_env  # noqa: F401  (registers the ids)
 
-    steps = cfg.env_kwargs.get("max_episode_steps", gym.spec(ENV_ID).max_episode_steps)
+    steps = cfg.gym_kwargs.get("max_episode_steps", gym.spec(ENV_ID).max_episode_steps)
     return {"env_id": ENV_ID, **cfg.env_config().rules_dict(), "max_episode_steps": steps}
 
 
@@ -283,15 +279,23 @@ def _runner_facts(algo: Any) -> list[tuple[int, int]]:
 def train_rllib(cfg: TrainConfig, options: RLlibOptions | None = None) -> RLlibResult:
     """Train PPO with RLlib as ``cfg`` and ``options`` say; see the module docstring.
 
-    Training runs whole iterations (``n_steps * num_env_runners`` steps each) until
+    Training runs whole iterations (about ``rollout_steps`` steps each) until
     ``cfg.timesteps`` steps are sampled or ``cfg.max_minutes`` have passed.
 
     Raises:
-        ValueError: When ``cfg.resume`` is set (the sb3 backend's option).
+        ValueError: When ``cfg`` asks for what only the sb3 backend does (``resume``,
+            ``curriculum``, ``algo="recurrent-ppo"``), naming the field.
     """
+    import torch
+
     options = options or RLlibOptions()
     if cfg.resume is not None:
         raise ValueError("resume is for the sb3 backend; the rllib backend starts afresh")
+    if cfg.curriculum:
+        raise ValueError("curriculum is for the sb3 backend; give the rllib backend a --scenario")
+    if cfg.algo != "ppo":
+        raise ValueError(f"algo must be 'ppo' for the rllib backend, got {cfg.algo!r}")
+    torch.set_num_threads(cfg.torch_threads)
     out = cfg.out_dir
     out.mkdir(parents=True, exist_ok=True)
     (out / "rules.json").write_text(json.dumps(rules_of(cfg), indent=2) + "\n")

@@ -40,14 +40,15 @@ def test_rllib_smoke_run_trains_checkpoints_and_acts(tmp_path, small_map) -> Non
     cfg = TrainConfig(
         timesteps=256,
         out_dir=tmp_path / "rllib",
-        n_steps=64,
+        rollout_steps=128,
         batch_size=64,
         n_epochs=1,
+        net_arch=(16,),
         checkpoint_freq=128,
         env_kwargs=env_kwargs,
         progress=False,
     )
-    result = train_rllib(cfg, RLlibOptions(num_env_runners=2, hidden=(16,), log_to_driver=False))
+    result = train_rllib(cfg, RLlibOptions(num_env_runners=2, log_to_driver=False))
 
     # Two iterations of 2 runners x 64 steps, in two fresh processes with one torch thread each.
     assert result.timesteps == 256 and result.iterations == 2
