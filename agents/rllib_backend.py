@@ -229,10 +229,11 @@ class _Log:
         step = int(row["timesteps"])
         for name, value in _scalars(result).items():
             self.writer.add_scalar(name, value, step)
-        for name, value in row.items():
+        for name, value in _scalars(row).items():
             self.writer.add_scalar(f"stereo_nav/{name}", value, step)
-        with (self.out / "results.jsonl").open("a") as fh:
-            fh.write(json.dumps(row) + "\n")
+        finite = {k: (v if math.isfinite(v) else None) for k, v in row.items()}
+        with (self.out / "results.jsonl").open("a") as fh:  # null: no episode ended yet
+            fh.write(json.dumps(finite, allow_nan=False) + "\n")
         self.rows.append(row)
 
     def close(self) -> None:
