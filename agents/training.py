@@ -367,6 +367,8 @@ def train_ppo(cfg: TrainConfig) -> TrainResult:
     import torch
     from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
 
+    import stereo_nav_env  # noqa: F401  (registers ENV_ID, looked up below)
+
     torch.set_num_threads(cfg.torch_threads)
     out = cfg.out_dir
     out.mkdir(parents=True, exist_ok=True)
