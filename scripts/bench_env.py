@@ -23,7 +23,10 @@ diagnostics: of both models).
 The surrogate row: in every round, the same drive and seed through ``perception="surrogate"``
 (:mod:`stereo_nav_env.surrogate`, nothing rendered), right after the stereo env:
 ``surrogate_env_step_ms``, ``surrogate_env_steps_per_s`` and ``surrogate_over_stereo_steps_per_s``
-(its steps per second over the stereo env's, per round, then the median).
+(its steps per second over the stereo env's, per round, then the median). The training pair:
+the same drive through the env ``train.py`` builds (``StereoNav-v1``, ``memory=False``,
+``diagnostics=False``) with each perception, ``train_stereo_env_*``, ``train_surrogate_env_*``
+and ``train_surrogate_over_stereo_steps_per_s``.
 
 ``--baseline DIR`` compares this checkout's env with another checkout's (DIR, e.g. the code
 before a change) in one run: the rounds alternate between the two trees (this, DIR, DIR, this,
@@ -44,7 +47,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, Any, cast
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
@@ -130,9 +133,12 @@ def one_round(steps: int, seed: int) -> dict[str, float]:
     return out
 
 
-def surrogate_round(steps: int, seed: int) -> dict[str, float]:
-    """The surrogate perception's figures of ``steps`` timed steps of the drive (the row's)."""
-    env = gym.make("StereoNav-v0", perception="surrogate")
+def drive_round(
+    steps: int, seed: int, prefix: str, env_id: str = "StereoNav-v0", **kwargs: Any
+) -> dict[str, float]:
+    """``<prefix>env_step_ms`` and ``<prefix>env_steps_per_s`` of ``steps`` timed steps of the
+    drive in ``gym.make(env_id, **kwargs)`` (a row beside the stereo env's)."""
+    env = gym.make(env_id, **kwargs)
     step_ms: list[float] = []
     try:
         env.reset(seed=seed)
@@ -147,16 +153,38 @@ def surrogate_round(steps: int, seed: int) -> dict[str, float]:
     finally:
         env.close()
     return {
-        "surrogate_env_step_ms": statistics.median(step_ms),
-        "surrogate_env_steps_per_s": 1e3 * len(step_ms) / sum(step_ms),
+        f"{prefix}env_step_ms": statistics.median(step_ms),
+        f"{prefix}env_steps_per_s": 1e3 * len(step_ms) / sum(step_ms),
     }
 
 
+def surrogate_round(steps: int, seed: int) -> dict[str, float]:
+    """The surrogate perception's figures of ``steps`` timed steps of the drive (the row's)."""
+    return drive_round(steps, seed, "surrogate_", perception="surrogate")
+
+
+TRAINING_KWARGS: dict[str, Any] = {"scenario": "default", "memory": False, "diagnostics": False}
+"""The env as ``train.py`` builds it (``StereoNav-v1``, no memory, no diagnostics)."""
+
+
 def _with_surrogate(stereo: dict[str, float], steps: int, seed: int) -> dict[str, float]:
-    """``stereo``'s figures and the surrogate row of the same round."""
+    """``stereo``'s figures, the surrogate row of the same round, and the training pair: both
+    perceptions in the env ``train.py`` builds (``train_stereo_*``, ``train_surrogate_*``)."""
     out = {**stereo, **surrogate_round(steps, seed)}
     out["surrogate_over_stereo_steps_per_s"] = (
         out["surrogate_env_steps_per_s"] / stereo["env_steps_per_s"]
+    )
+    for perception in ("stereo", "surrogate"):
+        out |= drive_round(
+            steps,
+            seed,
+            f"train_{perception}_",
+            "StereoNav-v1",
+            perception=perception,
+            **TRAINING_KWARGS,
+        )
+    out["train_surrogate_over_stereo_steps_per_s"] = (
+        out["train_surrogate_env_steps_per_s"] / out["train_stereo_env_steps_per_s"]
     )
     return out
 

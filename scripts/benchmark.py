@@ -45,6 +45,16 @@ SUMMARY = [
     ("env step, median", "env_step_ms", " ms"),
     ("stereo pair render (320x240) alone, same poses, median", "env_render_pair_ms", " ms"),
     ("modeling (`build_model`) within a step, median", "env_stage_modeling_ms", " ms"),
+    (
+        "training env (`StereoNav-v1`, no memory) steps per second, stereo",
+        "train_stereo_env_steps_per_s",
+        "",
+    ),
+    (
+        "the same, surrogate perception, over stereo (same run)",
+        "train_surrogate_over_stereo_steps_per_s",
+        "x",
+    ),
 ]
 """The rows of the short table: ``(label, figure name, unit)``."""
 
