@@ -509,7 +509,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             command[2] * cfg.world.pan_limit_rad,
         )
         watch.lap("physics")
-        self._last = (np.clip(command, -1.0, 1.0).astype(np.float32), bool(result.collided))
+        self._last = (command.astype(np.float32), bool(result.collided))  # clipped already
         obs = self._observe(watch, result.contacts)
         pose = self.robot_pose
         after = self._geodesic(pose[:2])

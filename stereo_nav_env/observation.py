@@ -117,6 +117,15 @@ def region_bounds(cfg: ObservationConfig) -> tuple[Float32Array, Float32Array]:
     return low, high
 
 
+@functools.lru_cache(maxsize=16)
+def _region_scale(cfg: ObservationConfig) -> Float32Array:
+    """(F,) float32: each region feature's largest magnitude (mode ``"policy"`` divides by it)."""
+    low, high = region_bounds(cfg)
+    scale = np.maximum(np.abs(low), np.abs(high))
+    scale.setflags(write=False)
+    return scale
+
+
 def observation_space(cfg: ObservationConfig, rig: StereoRig) -> spaces.Dict:
     """The ``Dict`` observation space for ``cfg`` (keys in the module docstring)."""
     if cfg.has_policy:
@@ -152,7 +161,7 @@ def _policy_space(cfg: ObservationConfig) -> spaces.Dict:
     K, R, S = cfg.num_situations, cfg.num_regions, cfg.raster_size_px
     unit = np.array([0.0, -1.0, -1.0], dtype=np.float32), np.ones(3, dtype=np.float32)
     low, high = region_bounds(cfg)
-    scale = np.maximum(np.abs(low), np.abs(high))
+    scale = _region_scale(cfg)
     return spaces.Dict(
         {
             "raster": spaces.Box(0, 255, shape=(S, S, 5), dtype=np.uint8),
@@ -207,9 +216,7 @@ def pack_policy(
     Returns:
         New arrays: (S, S, 5) uint8, (K,), (K * R * F,), (3,), (1,), (3,) float32.
     """
-    low, high = region_bounds(cfg)
-    scale = np.maximum(np.abs(low), np.abs(high))
-    table = _region_table(model, robot_pose, cfg) / scale
+    table = _region_table(model, robot_pose, cfg) / _region_scale(cfg)
     return {
         "raster": rasterize_policy(model, never_seen, robot_pose, cfg, near_m=near_m),
         "situation_probs": _situation_probs(model, cfg),

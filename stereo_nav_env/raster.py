@@ -54,6 +54,7 @@ __all__ = [
     "rasterize_model",
     "rasterize_policy",
     "unknown_channel",
+    "view_masks",
     "view_wedge",
     "world_to_raster",
 ]
@@ -156,13 +157,19 @@ def view_wedge(model: EnvironmentModel, near_m: float = 0.0) -> FloatArray:
     return np.concatenate([far, (np.array([vx, vy]) + near_m * unit)[::-1]])
 
 
-def _view_masks(
-    model: EnvironmentModel, A: FloatArray, b: FloatArray, size: int, near_m: float
+def view_masks(
+    model: EnvironmentModel,
+    A: FloatArray,
+    b: FloatArray,
+    shape: tuple[int, int],
+    near_m: float,
 ) -> tuple[NDArray[np.uint8], NDArray[np.uint8]]:
-    """``(visible, occluded)`` (S, S) uint8 masks (255 inside): the view's sector beyond the
-    blind band, less the occluded area; and the occluded area (``model.occluded``)."""
-    visible = np.zeros((size, size), dtype=np.uint8)
-    occluded = np.zeros((size, size), dtype=np.uint8)
+    """``(visible, occluded)`` uint8 masks of ``shape`` (255 inside): the view's sector beyond
+    the blind band ``near_m``, less the occluded area; and the occluded area (``model.occluded``),
+    drawn through the affine map ``p @ A.T + b`` from world metres to pixels (pixel centres at
+    integer coordinates: :func:`world_to_raster`'s, or a world grid's)."""
+    visible = np.zeros(shape, dtype=np.uint8)
+    occluded = np.zeros(shape, dtype=np.uint8)
     wedge = view_wedge(model, near_m)
     if wedge.shape[0] >= 3:
         cv2.fillPoly(visible, [_fixed(wedge, A, b)], 255, cv2.LINE_8, _SHIFT)
@@ -176,7 +183,7 @@ def _unobserved(
     model: EnvironmentModel, A: FloatArray, b: FloatArray, size: int, near_m: float
 ) -> NDArray[np.uint8]:
     """Channel 2: 128 outside the field of view and in the blind band, 0 seen, 255 occluded."""
-    visible, occluded = _view_masks(model, A, b, size, near_m)
+    visible, occluded = view_masks(model, A, b, (size, size), near_m)
     out = np.full((size, size), UNSEEN_VALUE, dtype=np.uint8)
     out[visible > 0] = 0
     out[occluded > 0] = 255
@@ -266,7 +273,7 @@ def rasterize_policy(
         raise ValueError(f"never_seen must have shape {(size, size)}, got {never_seen.shape}")
     A, b = world_to_raster(robot_pose, cfg)
     two = _model_channels(model, A, b, cfg)
-    visible, occluded = _view_masks(model, A, b, size, near_m)
+    visible, occluded = view_masks(model, A, b, (size, size), near_m)
     visible[two[0] > 0] = 0
     raster: NDArray[np.uint8] = np.dstack([two[0], two[1], visible, occluded, never_seen])
     return raster

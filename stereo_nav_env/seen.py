@@ -17,11 +17,10 @@ from numpy.typing import NDArray
 
 from modeling.model import EnvironmentModel
 from stereo_nav_env.config import ObservationConfig
-from stereo_nav_env.raster import UNKNOWN_VALUE, view_wedge, world_to_raster
+from stereo_nav_env.raster import UNKNOWN_VALUE, view_masks, world_to_raster
 
 __all__ = ["SeenFloor"]
 
-_SHIFT = 4
 _MAX_CELLS = 4096
 """Largest grid side: a scene of 200 m at 5 cm cells (larger scenes get coarser cells)."""
 
@@ -50,23 +49,16 @@ class SeenFloor:
         self.grid: NDArray[np.uint8] = np.zeros(shape, dtype=np.uint8)
         """255 where seen, 0 where never seen; (rows along y, columns along x)."""
 
-    def _to_grid(self, points: NDArray[np.float64]) -> NDArray[np.int32]:
-        """World points (n, 2) to fixed-point grid coordinates (column, row) for OpenCV."""
-        pix = (points - np.asarray(self.origin)) / self.cell_m - 0.5
-        out: NDArray[np.int32] = np.rint(np.clip(pix, -1e5, 1e5) * (1 << _SHIFT)).astype(np.int32)
-        return out
+    def _grid_map(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The affine map ``p @ A.T + b`` from world metres to grid (column, row) pixels."""
+        A = np.eye(2) / self.cell_m
+        return A, -np.asarray(self.origin) / self.cell_m - 0.5
 
     def mark(self, model: EnvironmentModel, near_m: float) -> None:
         """Mark the floor the view of ``model`` sees (beyond ``near_m`` of its viewpoint)."""
-        wedge = view_wedge(model, near_m)
-        if wedge.shape[0] < 3:
-            return
-        view = np.zeros_like(self.grid)
-        cv2.fillPoly(view, [self._to_grid(wedge)], 255, cv2.LINE_8, _SHIFT)
-        if model.occluded:
-            polys = [self._to_grid(np.asarray(p)) for p in model.occluded]
-            cv2.fillPoly(view, polys, 0, cv2.LINE_8, _SHIFT)
-        np.bitwise_or(self.grid, view, out=self.grid)
+        A, b = self._grid_map()
+        visible, _ = view_masks(model, A, b, self.grid.shape, near_m)
+        np.bitwise_or(self.grid, visible, out=self.grid)
 
     def never_seen(
         self, robot_pose: tuple[float, float, float], cfg: ObservationConfig
@@ -78,10 +70,11 @@ class SeenFloor:
             cfg: Raster size and extent (:func:`~stereo_nav_env.raster.world_to_raster`).
         """
         A, b = world_to_raster(robot_pose, cfg)
-        inv = np.linalg.inv(A)  # raster pixel -> world
+        G, g = self._grid_map()
+        inv = np.linalg.inv(A)  # raster pixel -> world -> grid pixel
         M = np.empty((2, 3))
-        M[:, :2] = inv / self.cell_m
-        M[:, 2] = (-inv @ b - np.asarray(self.origin)) / self.cell_m - 0.5
+        M[:, :2] = G @ inv
+        M[:, 2] = g - G @ inv @ b
         size = cfg.raster_size_px
         seen = cv2.warpAffine(
             self.grid,
