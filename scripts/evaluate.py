@@ -3,7 +3,7 @@
     python scripts/evaluate.py --agent NAME [--agent NAME ...] --episodes N --seed S --json FILE
         [--markdown FILE] [--plot FILE] [--details FILE] [--scenario FAMILY]
         [--families F [F ...]] [--max-steps N] [--workers K] [--terminate-on-collision]
-        [--perception P]
+        [--perception P] [--tilt RAD]
 
 The suite runs under the StereoNav-v1 rules; each agent's JSON entry records them ("rules") and
 carries 95 % bootstrap intervals of its rates (keys ending in "_ci").
@@ -60,6 +60,12 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
         default="stereo",
         help="the env's perception (surrogate: no rendering, stereo_nav_env.surrogate)",
     )
+    parser.add_argument(
+        "--tilt",
+        type=float,
+        default=None,
+        help="head tilt below the horizon, radians (the camera's tilt_rad; default: the env's)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
 
@@ -70,7 +76,8 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
         seed=args.seed,
         max_steps=args.max_steps,
         env_kwargs={"diagnostics": False, "memory": False, "perception": args.perception}
-        | ({"terminate_on_collision": True} if args.terminate_on_collision else {}),
+        | ({"terminate_on_collision": True} if args.terminate_on_collision else {})
+        | ({"camera": {"tilt_rad": args.tilt}} if args.tilt is not None else {}),
         **kw,
     )
     return args, cfg

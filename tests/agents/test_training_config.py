@@ -33,3 +33,15 @@ def test_training_and_evaluation_build_identical_env_configs(tmp_path: pathlib.P
         assert trained.rules_dict() == evaluated.rules_dict()
         assert trained.rules_dict()["preset"] == "v1"
         assert suite_rules(suite)["env_id"] == "StereoNav-v1"
+
+
+def test_evaluate_tilt_sets_the_suite_envs_head_tilt(tmp_path: pathlib.Path) -> None:
+    base = ["--agent", "greedy", "--json", str(tmp_path / "e.json")]
+    tilted = _script("evaluate").suite_config([*base, "--tilt", "0.3"])
+    level = _script("evaluate").suite_config(base)
+    assert suite_env_config(tilted, "room").camera.tilt_rad == 0.3
+    assert suite_env_config(level, "room").camera.tilt_rad == 0.0
+    assert (
+        suite_env_config(tilted, "room").blind_range_m
+        < suite_env_config(level, "room").blind_range_m
+    )
