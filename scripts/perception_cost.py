@@ -1,7 +1,7 @@
 """Evaluate agents on the same suite episodes with each perception: what stereo costs each agent.
 
     python scripts/perception_cost.py --agent NAME [--agent NAME ...] --episodes N --seed S
-        --json FILE [--markdown FILE] [--families F [F ...]] [--workers K]
+        --json FILE [--markdown FILE] [--families F [F ...]] [--max-steps N] [--workers K]
 
 Runs the suite of ``scripts/evaluate.py`` (the same arguments, the same env) once with
 ``perception="stereo"`` and once with ``"surrogate"``, and writes per agent both summaries and the
@@ -35,12 +35,14 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, Any]]:
     parser.add_argument("--json", type=pathlib.Path, required=True, help="output JSON file")
     parser.add_argument("--markdown", type=pathlib.Path, help="Markdown table file")
     parser.add_argument("--families", nargs="+", default=None, help="scene families")
+    parser.add_argument("--max-steps", type=int, default=500, help="steps at most per episode")
     parser.add_argument("--workers", type=int, default=1, help="parallel processes")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
 
     common = [f"--agent={a}" for a in args.agent]
     common += ["--episodes", str(args.episodes), "--seed", str(args.seed), "--json", "-"]
+    common += ["--max-steps", str(args.max_steps)]
     if args.families is not None:
         common += ["--families", *args.families]
     results = {}

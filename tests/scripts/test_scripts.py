@@ -105,3 +105,41 @@ def test_memory_figure_draws_one_view_beside_the_fused_model(
         ["--scenario", str(small_map), "--views", "3", "--out", str(tmp_path / "m.png")]
     )
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 5000
+
+
+def test_perception_cost_pairs_the_suite_under_both_perceptions(
+    tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.syspath_prepend(str(ROOT / "scripts"))  # it imports evaluate.py's suite
+    out = tmp_path / "cost.json"
+    cost = _script("perception_cost").main(
+        [
+            "--agent", "greedy", "--episodes", "2", "--seed", "3", "--families", "open",
+            "--max-steps", "40", "--json", str(out), "--markdown", str(tmp_path / "cost.md"),
+            "--no-progress",
+        ]
+    )  # fmt: skip
+    data = json.loads(out.read_text())
+    assert data["agents"] == cost and data["suite"]["families"] == ["open"]
+    greedy = cost["greedy"]
+    assert greedy["stereo"]["episodes"] == greedy["surrogate"]["episodes"] == 2
+    assert greedy["spl_cost"] == pytest.approx(greedy["stereo"]["spl"] - greedy["surrogate"]["spl"])
+    assert "| greedy | 2 |" in (tmp_path / "cost.md").read_text()
+
+
+def test_collision_report_records_each_contact_with_the_obstacle_hit(
+    tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.syspath_prepend(str(ROOT / "scripts"))
+    # the planner's first suite episode (a room) touches a table at step 109 (0-based)
+    out = tmp_path / "contacts.json"
+    contacts = _script("collision_report").main(
+        [
+            "--agent", "planner", "--episodes", "1", "--seed", "0", "--families", "room",
+            "--max-steps", "112", "--json", str(out),
+        ]
+    )  # fmt: skip
+    assert json.loads(out.read_text()) == contacts
+    assert [(c["step"], c["kind"], c["family"]) for c in contacts] == [(109, "table", "room")]
+    assert contacts[0]["views_in_range"] > 0
+    assert "1 contacts in 1 episodes (planner)" in capsys.readouterr().out
