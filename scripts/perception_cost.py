@@ -2,11 +2,14 @@
 
     python scripts/perception_cost.py --agent NAME [--agent NAME ...] --episodes N --seed S
         --json FILE [--markdown FILE] [--families F [F ...]] [--max-steps N] [--workers K]
+    python scripts/perception_cost.py --agent NAME [...] --from-details STEREO SURROGATE --json FILE
 
 Runs the suite of ``scripts/evaluate.py`` (the same arguments, the same env) once with
 ``perception="stereo"`` and once with ``"surrogate"``, and writes per agent both summaries and the
 paired differences of success and SPL with their 95 % bootstrap intervals
-(:mod:`agents.perception_cost`).
+(:mod:`agents.perception_cost`). ``--from-details`` runs nothing: it pairs the per-episode files
+that two ``scripts/evaluate.py --details FILE`` runs wrote, one with ``--perception stereo`` and
+one with ``--perception surrogate`` (run them at once on two cores), with the same suite arguments.
 """
 
 from __future__ import annotations
@@ -22,8 +25,18 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
 from evaluate import suite_config
 
-from agents.evaluation import evaluate
+from agents.evaluation import EpisodeResult, evaluate
 from agents.perception_cost import PERCEPTIONS, perception_cost, perception_markdown
+
+
+def _read_details(path: pathlib.Path, agents: list[str]) -> dict[str, list[EpisodeResult]]:
+    """The episodes of ``agents`` in an ``evaluate.py --details`` file."""
+    records = json.loads(path.read_text())
+    out = {a: [EpisodeResult(**r) for r in records if r["agent"] == a] for a in agents}
+    missing = [a for a, eps in out.items() if not eps]
+    if missing:
+        raise ValueError(f"--from-details {path} holds no episodes of {missing}")
+    return out
 
 
 def main(argv: list[str] | None = None) -> dict[str, dict[str, Any]]:
@@ -38,6 +51,13 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, Any]]:
     parser.add_argument("--max-steps", type=int, default=500, help="steps at most per episode")
     parser.add_argument("--workers", type=int, default=1, help="parallel processes")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument(
+        "--from-details",
+        nargs=2,
+        type=pathlib.Path,
+        metavar=("STEREO", "SURROGATE"),
+        help="pair two evaluate.py --details files instead of running the suite",
+    )
     args = parser.parse_args(argv)
 
     common = [f"--agent={a}" for a in args.agent]
@@ -45,15 +65,20 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, Any]]:
     common += ["--max-steps", str(args.max_steps)]
     if args.families is not None:
         common += ["--families", *args.families]
-    results = {}
-    for perception in PERCEPTIONS:
-        cfg = suite_config([*common, "--perception", perception])
-        results[perception] = evaluate(
-            args.agent, cfg, workers=args.workers, progress=not args.no_progress
-        )
+    results: dict[str, dict[str, list[EpisodeResult]]] = {}
+    if args.from_details is not None:
+        for perception, path in zip(PERCEPTIONS, args.from_details, strict=True):
+            results[perception] = _read_details(path, args.agent)
+        suite: Any = {"details": [str(p) for p in args.from_details]}
+    else:
+        for perception in PERCEPTIONS:
+            cfg = suite_config([*common, "--perception", perception])
+            results[perception] = evaluate(
+                args.agent, cfg, workers=args.workers, progress=not args.no_progress
+            )
+        suite = dataclasses.asdict(suite_config(common))
+        suite.pop("env_kwargs")
     cost = perception_cost(results)
-    suite = dataclasses.asdict(suite_config(common))
-    suite.pop("env_kwargs")
     out = {"suite": suite, "agents": cost}
     args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps(out, indent=2) + "\n")

@@ -126,6 +126,27 @@ def test_perception_cost_pairs_the_suite_under_both_perceptions(
     assert greedy["spl_cost"] == pytest.approx(greedy["stereo"]["spl"] - greedy["surrogate"]["spl"])
     assert "| greedy | 2 |" in (tmp_path / "cost.md").read_text()
 
+    # the same pairing from two evaluate.py --details runs
+    details = []
+    for perception in ("stereo", "surrogate"):
+        details.append(str(tmp_path / f"{perception}.json"))
+        _script("evaluate").main(
+            [
+                "--agent", "greedy", "--episodes", "2", "--seed", "3", "--families", "open",
+                "--max-steps", "40", "--json", str(tmp_path / "e.json"), "--details", details[-1],
+                "--perception", perception, "--no-progress",
+            ]
+        )  # fmt: skip
+    paired = _script("perception_cost").main(
+        ["--agent", "greedy", "--from-details", *details, "--json", str(tmp_path / "p.json")]
+    )
+    assert paired["greedy"]["spl_cost"] == greedy["spl_cost"]
+    assert paired["greedy"]["surrogate"]["spl"] == greedy["surrogate"]["spl"]
+    with pytest.raises(ValueError, match="no episodes of \\['planner'\\]"):
+        _script("perception_cost").main(
+            ["--agent", "planner", "--from-details", *details, "--json", str(tmp_path / "q.json")]
+        )
+
 
 def test_collision_report_records_each_contact_with_the_obstacle_hit(
     tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
