@@ -13,7 +13,9 @@ first, and one sweep keeps the cost of a model flat in the number of situations.
 Within the field-of-view wedge of radius ``max_range_m``, an angular sweep of rays finds the
 nearest occluder along each ray (:func:`nearest_hits`), and each run of consecutive blocked rays
 gives one shadow polygon (:func:`shadow_rings`). It is computed once per model and treated as
-free space by the planners.
+free space by the planners. The rays of each segment's span (:func:`ray_spans`), the nearest hits
+and the rings are compiled loops (:mod:`modeling._compiled.sweep`), each beside its readable NumPy
+reference (``*_reference``, equal to the last bit; a test compares them).
 
 Frames: world, metres; angles radians.
 """
@@ -21,11 +23,13 @@ Frames: world, metres; angles radians.
 from __future__ import annotations
 
 import functools
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 import shapely
 
+from modeling._compiled import sweep as _kernel
+from modeling._compiled.sweep import RaysAndSegments, RaySweep, Rings
 from modeling.geometry import wrap_angle
 from modeling.observation import FloorObservation
 from modeling.records import Situation
@@ -36,59 +40,16 @@ __all__ = [
     "RaysAndSegments",
     "Rings",
     "nearest_hits",
+    "nearest_hits_reference",
     "occluded_area",
     "occluders_of",
     "polygons_of",
     "ray_hits",
+    "ray_spans",
+    "ray_spans_reference",
     "shadow_rings",
+    "shadow_rings_reference",
 ]
-
-
-class RaysAndSegments(NamedTuple):
-    """Rays from one origin and the segments to intersect them with.
-
-    Attributes:
-        u: (B, 2) unit direction of each ray.
-        p: (n, 2) first endpoint of each segment, relative to the rays' origin, metres.
-        e: (n, 2) each segment's second endpoint minus its first, metres.
-        k0: (n,) int64, first ray within each segment's angular span.
-        n_rays: (n,) int64, number of consecutive rays from ``k0`` to intersect with it (0:
-            none).
-    """
-
-    u: np.ndarray
-    p: np.ndarray
-    e: np.ndarray
-    k0: np.ndarray
-    n_rays: np.ndarray
-
-
-class RaySweep(NamedTuple):
-    """The rays of a sweep and their nearest hits.
-
-    Attributes:
-        origin: (2,) the rays' origin, world frame, metres.
-        u: (B, 2) unit direction of each ray, in angular order.
-        hit: (B,) distance to the nearest hit of each ray (``inf``: none), metres.
-        max_range: Range, metres.
-    """
-
-    origin: np.ndarray
-    u: np.ndarray
-    hit: np.ndarray
-    max_range: float
-
-
-class Rings(NamedTuple):
-    """Polygon rings one after another.
-
-    Attributes:
-        vertices: (v, 2) the rings (not closed), metres.
-        sizes: (r,) int64, the vertices of each ring.
-    """
-
-    vertices: np.ndarray
-    sizes: np.ndarray
 
 
 # The empty result of ``occluded_area`` (shapely geometries are immutable: one can be shared, and
@@ -142,19 +103,38 @@ def ray_hits(obs: FloorObservation, ends: FloatArray, n_rays: int) -> RaySweep:
     u = np.stack([np.cos(ang), np.sin(ang)], axis=1)  # (B, 2)
     hit = np.full(n_rays, np.inf)
     if ends.shape[0]:
-        step = 2.0 * half / (n_rays - 1)
         p = ends[:, 0] - vp
         e = ends[:, 1] - ends[:, 0]
         a0 = wrap_angle(np.arctan2(p[:, 1], p[:, 0]) - heading)
         a1 = wrap_angle(np.arctan2(p[:, 1] + e[:, 1], p[:, 0] + e[:, 0]) - heading)
-        lo, hi = np.minimum(a0, a1), np.maximum(a0, a1)
-        ok = hi - lo < np.pi  # a segment whose shorter arc passes behind the viewpoint: not in FOV
+        k0, count = ray_spans(np.minimum(a0, a1), np.maximum(a0, a1), half, n_rays)
+        hit = nearest_hits(RaysAndSegments(u=u, p=p, e=e, k0=k0, n_rays=count))
+    return RaySweep(origin=vp, u=u, hit=hit, max_range=float(obs.max_range_m))
+
+
+def ray_spans(
+    lo: FloatArray, hi: FloatArray, half: float, n_rays: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(k0, count)``: the first ray and the number of rays of the sweep (``n_rays`` over
+    ``[-half, half]`` about the heading) within each segment's angular span ``[lo, hi]``
+    (radians relative to the heading); none for an arc of pi or more, whose shorter arc passes
+    behind the viewpoint (:func:`ray_spans_reference`, compiled; a test holds the two equal)."""
+    spans: tuple[np.ndarray, np.ndarray] = _kernel.ray_spans(lo, hi, float(half), int(n_rays))
+    return spans
+
+
+def ray_spans_reference(
+    lo: FloatArray, hi: FloatArray, half: float, n_rays: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The readable reference of :func:`ray_spans`, in NumPy (``k0`` is 0 where ``count``
+    is)."""
+    step = 2.0 * half / (n_rays - 1)
+    ok = hi - lo < np.pi  # a segment whose shorter arc passes behind the viewpoint: not in FOV
+    with np.errstate(invalid="ignore"):  # NaN spans are not ok
         k0 = np.clip(np.ceil((lo + half) / step - 1e-9), 0, n_rays).astype(np.int64)
         k1 = np.clip(np.floor((hi + half) / step + 1e-9), -1, n_rays - 1).astype(np.int64)
-        cnt = np.where(ok, np.maximum(k1 - k0 + 1, 0), 0)
-        if cnt.any():
-            hit = nearest_hits(RaysAndSegments(u=u, p=p, e=e, k0=k0, n_rays=cnt))
-    return RaySweep(origin=vp, u=u, hit=hit, max_range=float(obs.max_range_m))
+    count = np.where(ok, np.maximum(k1 - k0 + 1, 0), 0)
+    return np.where(ok, k0, 0), count
 
 
 def occluders_of(situation: Situation) -> FloatArray:
@@ -166,7 +146,15 @@ def occluders_of(situation: Situation) -> FloatArray:
 
 def nearest_hits(rays: RaysAndSegments) -> FloatArray:
     """Distance along each ray to the nearest segment it crosses (``inf``: none; section 4.1,
-    occlusion).
+    occlusion): :func:`nearest_hits_reference`, compiled (one pass over the (segment, ray)
+    pairs instead of a dozen array operations; a test holds the two equal)."""
+    hits: FloatArray = _kernel.nearest_hits(rays)
+    return hits
+
+
+def nearest_hits_reference(rays: RaysAndSegments) -> FloatArray:
+    """The readable reference of :func:`nearest_hits`, in NumPy: the distance along each ray
+    to the nearest segment it crosses (``inf``: none; section 4.1, occlusion).
 
     Ray ``k`` (direction ``u_k``) meets segment ``p + s e`` at ``r u_k = p + s e``; the hit
     counts when ``s`` is in [0, 1] (1e-9 slack) and ``r > 1e-9``, rays parallel to the segment
@@ -192,7 +180,16 @@ def nearest_hits(rays: RaysAndSegments) -> FloatArray:
 
 
 def shadow_rings(sweep: RaySweep) -> Rings:
-    """The occluded polygons of a ray sweep (section 4.1, occlusion).
+    """The occluded polygons of a ray sweep (section 4.1, occlusion): one ring per run of
+    consecutive blocked rays (:func:`shadow_rings_reference`, compiled; a test holds the two
+    equal)."""
+    rings: Rings = _kernel.shadow_rings(sweep)
+    return rings
+
+
+def shadow_rings_reference(sweep: RaySweep) -> Rings:
+    """The readable reference of :func:`shadow_rings`, in NumPy: the occluded polygons of a
+    ray sweep (section 4.1, occlusion).
 
     A ray is blocked when its hit is nearer than ``max_range``. Each run of consecutive blocked
     rays gives one ring: the hit points of its rays, then back along the range arc, which reaches

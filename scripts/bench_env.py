@@ -281,7 +281,7 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     parser.add_argument("--round-json", type=pathlib.Path, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.round_json is not None:  # one round, in a subprocess of --baseline
-        figures = one_round(args.steps, args.seed)
+        figures = _with_surrogate(one_round(args.steps, args.seed), args.steps, args.seed)
         args.round_json.write_text(json.dumps(figures))
         return figures
     if args.baseline is not None:

@@ -396,18 +396,18 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         assert self.scene is not None
         near, ocfg = cfg.blind_range_m, cfg.observation
         pan = np.array([pan_fraction(world.pan_rad, cfg.world.pan_limit_rad)], np.float32)
-        obs: Obs = {"goal": goal_features(self.scene.goal, pose), "head_pan": pan}
+        if self._seen is not None:  # mode "policy": its own goal field, first as in every mode
+            self._seen.mark(self.model, near)
+            unseen = self._seen.never_seen(pose, ocfg)
+            packed = pack_policy(self.model, unseen, self.scene.goal, pose, ocfg, near, self._last)
+            obs: Obs = {"goal": packed["goal"], "head_pan": pan, **packed}
+        else:
+            obs = {"goal": goal_features(self.scene.goal, pose), "head_pan": pan}
         if ocfg.has_model:
             obs.update(pack_model(self.model, pose, ocfg, near_m=near))
         if ocfg.has_memory:
             assert self.memory is not None and self.memory_model is not None
             obs.update(pack_memory(self.memory_model, self.memory.seen, pose, ocfg, near_m=near))
-        if self._seen is not None:
-            self._seen.mark(self.model, near)
-            unseen = self._seen.never_seen(pose, ocfg)
-            obs.update(
-                pack_policy(self.model, unseen, self.scene.goal, pose, ocfg, near, self._last)
-            )
         if cfg.observation.has_images:
             left, right = self._noisy_pair()
             obs["left"], obs["right"] = left.copy(), right.copy()

@@ -17,11 +17,12 @@ World frame, metres. Computed once per scene (a few tens of milliseconds for a 9
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
@@ -123,12 +124,14 @@ class GeodesicField:
             origin=origin, cell_m=float(cell_m), distance=dist, free=free, reachable=reachable
         )
 
-    def __call__(self, xy: ArrayLike) -> float:
+    def __call__(self, xy: Sequence[float] | FloatArray) -> float:
         """Geodesic distance from world point ``xy`` (2,) to the goal, metres (bilinear)."""
-        p = (np.asarray(xy, dtype=np.float64)[:2] - self.origin) / self.cell_m
+        # in Python floats: the arithmetic of the array expression, without its allocations
+        # (the reward asks twice a step)
+        x, y = float(xy[0]), float(xy[1])
         rows, cols = self.distance.shape
-        c = min(max(float(p[0]), 0.0), cols - 1.0)
-        r = min(max(float(p[1]), 0.0), rows - 1.0)
+        c = min(max((x - float(self.origin[0])) / self.cell_m, 0.0), cols - 1.0)
+        r = min(max((y - float(self.origin[1])) / self.cell_m, 0.0), rows - 1.0)
         c0, r0 = min(int(c), max(cols - 2, 0)), min(int(r), max(rows - 2, 0))
         fc, fr = c - c0, r - r0
         c1, r1 = min(c0 + 1, cols - 1), min(r0 + 1, rows - 1)

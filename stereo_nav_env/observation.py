@@ -323,7 +323,7 @@ def _situation_probs(model: EnvironmentModel, cfg: ObservationConfig) -> Float32
     K = cfg.num_situations
     probs = np.zeros(K, dtype=np.float32)
     p = [s.probability for s in model.situations[:K]]
-    probs[: len(p)] = np.clip(np.asarray(p, dtype=np.float32), 0.0, 1.0)
+    probs[: len(p)] = np.minimum(np.maximum(np.asarray(p, dtype=np.float32), 0.0), 1.0)
     return probs
 
 

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import cast
 
 import cv2
 import numpy as np
@@ -45,6 +46,7 @@ import shapely
 from numpy.typing import NDArray
 
 from modeling.model import EnvironmentModel, Situation
+from modeling.observation import FloorObservation
 from stereo_nav_env.config import ObservationConfig
 
 __all__ = [
@@ -56,6 +58,7 @@ __all__ = [
     "unknown_channel",
     "view_masks",
     "view_wedge",
+    "visible_mask",
     "world_to_raster",
 ]
 
@@ -89,9 +92,10 @@ def world_to_raster(
 
 
 def _fixed(points: FloatArray, A: FloatArray, b: FloatArray) -> NDArray[np.int32]:
-    """World points (..., 2) to fixed-point raster coordinates (..., 2) int32 for OpenCV."""
+    """World points (..., 2) to fixed-point raster coordinates (..., 2) int32 for OpenCV
+    (clipped to +-1e5 pixels: ``np.clip``'s values, without its wrapper's cost)."""
     pix = points @ A.T + b
-    return np.rint(np.clip(pix, -1e5, 1e5) * _SCALE).astype(np.int32)
+    return np.rint(np.minimum(np.maximum(pix, -1e5), 1e5) * _SCALE).astype(np.int32)
 
 
 def _obstacle_lines(situation: Situation) -> FloatArray:
@@ -137,24 +141,38 @@ def _arc_offsets(half: float) -> FloatArray:
     return out
 
 
+_last_wedge: tuple[FloorObservation, float, FloatArray] | None = None
+"""The latest :func:`view_wedge`: its observation (held, so its identity is not reused), blind
+band and wedge. An env step draws the view's wedge twice (the seen floor's grid, the raster)."""
+
+
 def view_wedge(model: EnvironmentModel, near_m: float = 0.0) -> FloatArray:
     """The floor the view of ``model`` can see, unoccluded: the sector of its field of view
     between ``near_m`` (the blind band below the image) and its range, world metres.
 
     Returns:
-        (n, 2) polygon vertices (the viewpoint then the range arc when ``near_m`` is 0; the
-        range arc then the near arc reversed otherwise; empty when ``near_m`` >= the range).
+        (n, 2) read-only polygon vertices (the viewpoint then the range arc when ``near_m`` is
+        0; the range arc then the near arc reversed otherwise; empty when ``near_m`` >= the
+        range). The latest one is kept and given again for the same observation and band.
     """
+    global _last_wedge
     obs = model.observation
+    last = _last_wedge  # one read: another thread may replace it meanwhile
+    if last is not None and last[0] is obs and last[1] == near_m:
+        return last[2]
     vx, vy, heading = (float(v) for v in obs.viewpoint)
     ang = heading + _arc_offsets(0.5 * float(obs.fov_rad))
     unit = np.stack([np.cos(ang), np.sin(ang)], axis=1)
     far = np.array([vx, vy]) + obs.max_range_m * unit
     if near_m <= 0.0:
-        return np.concatenate([[[vx, vy]], far])
-    if near_m >= obs.max_range_m:
-        return np.zeros((0, 2))
-    return np.concatenate([far, (np.array([vx, vy]) + near_m * unit)[::-1]])
+        wedge = np.concatenate([[[vx, vy]], far])
+    elif near_m >= obs.max_range_m:
+        wedge = np.zeros((0, 2))
+    else:
+        wedge = np.concatenate([far, (np.array([vx, vy]) + near_m * unit)[::-1]])
+    wedge.setflags(write=False)
+    _last_wedge = (obs, near_m, wedge)
+    return wedge
 
 
 def view_masks(
@@ -175,8 +193,27 @@ def view_masks(
         cv2.fillPoly(visible, [_fixed(wedge, A, b)], 255, cv2.LINE_8, _SHIFT)
     if model.occluded:
         cv2.fillPoly(occluded, [_fixed(p, A, b) for p in model.occluded], 255, cv2.LINE_8, _SHIFT)
-        visible[occluded > 0] = 0
+        cv2.subtract(visible, occluded, dst=visible)  # 0 where occluded (both masks are 0/255)
     return visible, occluded
+
+
+def visible_mask(
+    model: EnvironmentModel,
+    A: FloatArray,
+    b: FloatArray,
+    shape: tuple[int, int],
+    near_m: float,
+) -> NDArray[np.uint8]:
+    """The ``visible`` mask of :func:`view_masks` alone (the occluded area drawn out of the
+    sector directly: the same pixels, one array and one pass fewer)."""
+    visible = np.zeros(shape, dtype=np.uint8)
+    wedge = view_wedge(model, near_m)
+    if wedge.shape[0] >= 3:
+        cv2.fillPoly(visible, [_fixed(wedge, A, b)], 255, cv2.LINE_8, _SHIFT)
+        if model.occluded:
+            polys = [_fixed(p, A, b) for p in model.occluded]
+            cv2.fillPoly(visible, polys, 0, cv2.LINE_8, _SHIFT)
+    return visible
 
 
 def _unobserved(
@@ -201,11 +238,11 @@ def _model_channels(
     total = float(weights.sum())
     if situations and total > 0:
         weights = weights / total
-        occ = np.empty((size, size), dtype=np.uint8)
-        doubt = np.empty((size, size), dtype=np.uint8)
         if len(situations) == 1:
             _draw_situation(situations[0], A, b, out[0], out[1])
         else:
+            occ = np.empty((size, size), dtype=np.uint8)
+            doubt = np.empty((size, size), dtype=np.uint8)
             acc = np.zeros((2, size, size), dtype=np.float32)
             for w, situation in zip(weights.tolist(), situations, strict=True):
                 _draw_situation(situation, A, b, occ, doubt)
@@ -275,8 +312,8 @@ def rasterize_policy(
     two = _model_channels(model, A, b, cfg)
     visible, occluded = view_masks(model, A, b, (size, size), near_m)
     visible[two[0] > 0] = 0
-    raster: NDArray[np.uint8] = np.dstack([two[0], two[1], visible, occluded, never_seen])
-    return raster
+    raster = cv2.merge([two[0], two[1], visible, occluded, never_seen])  # (S, S, 5)
+    return cast(NDArray[np.uint8], raster)
 
 
 def unknown_channel(

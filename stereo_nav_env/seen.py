@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from modeling.model import EnvironmentModel
 from stereo_nav_env.config import ObservationConfig
-from stereo_nav_env.raster import UNKNOWN_VALUE, view_masks, world_to_raster
+from stereo_nav_env.raster import UNKNOWN_VALUE, visible_mask, world_to_raster
 
 __all__ = ["SeenFloor"]
 
@@ -48,16 +48,13 @@ class SeenFloor:
         shape = (math.ceil((ymax - ymin) / cell), math.ceil((xmax - xmin) / cell))
         self.grid: NDArray[np.uint8] = np.zeros(shape, dtype=np.uint8)
         """255 where seen, 0 where never seen; (rows along y, columns along x)."""
-
-    def _grid_map(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        self._grid_map = (np.eye(2) / cell, -np.asarray(self.origin) / cell - 0.5)
         """The affine map ``p @ A.T + b`` from world metres to grid (column, row) pixels."""
-        A = np.eye(2) / self.cell_m
-        return A, -np.asarray(self.origin) / self.cell_m - 0.5
 
     def mark(self, model: EnvironmentModel, near_m: float) -> None:
         """Mark the floor the view of ``model`` sees (beyond ``near_m`` of its viewpoint)."""
-        A, b = self._grid_map()
-        visible, _ = view_masks(model, A, b, self.grid.shape, near_m)
+        A, b = self._grid_map
+        visible = visible_mask(model, A, b, self.grid.shape, near_m)
         np.bitwise_or(self.grid, visible, out=self.grid)
 
     def never_seen(
@@ -70,7 +67,7 @@ class SeenFloor:
             cfg: Raster size and extent (:func:`~stereo_nav_env.raster.world_to_raster`).
         """
         A, b = world_to_raster(robot_pose, cfg)
-        G, g = self._grid_map()
+        G, g = self._grid_map
         inv = np.linalg.inv(A)  # raster pixel -> world -> grid pixel
         M = np.empty((2, 3))
         M[:, :2] = G @ inv
@@ -84,5 +81,5 @@ class SeenFloor:
             borderMode=cv2.BORDER_CONSTANT,
             borderValue=0,
         )
-        out: NDArray[np.uint8] = np.where(seen > 0, 0, UNKNOWN_VALUE).astype(np.uint8)
+        out: NDArray[np.uint8] = np.where(seen > 0, np.uint8(0), np.uint8(UNKNOWN_VALUE))
         return out

@@ -148,6 +148,12 @@ def _wrap(angle: float) -> float:
     return math.pi if wrapped == -math.pi else wrapped
 
 
+def _clip(value: float, limit: float) -> float:
+    """``value`` (finite) clipped to ``[-limit, limit]``: ``np.clip``'s value, to the sign of
+    a zero, in plain Python (the physics clips several times a step)."""
+    return min(max(value, -limit), limit)
+
+
 def _convex_pieces(footprint: np.ndarray) -> list[list[tuple[float, float]]]:
     poly = Polygon(footprint)
     if poly.equals(poly.convex_hull):
@@ -260,14 +266,15 @@ class World:
         shape (its deepest point), those within 1 cm of an earlier one left out."""
         out: list[Contact] = []
         for info in self.space.shape_query(self.shape):
-            points = info.contact_point_set.points
+            contact_set = info.contact_point_set  # made anew by pymunk on every access
+            points = contact_set.points
             if not points:
                 continue
             deepest = min(points, key=lambda p: p.distance)
             if deepest.distance > 1e-3:
                 continue
             # pymunk's normal points from the robot (shape a) into the obstacle (shape b)
-            n = info.contact_point_set.normal
+            n = contact_set.normal
             point = (float(deepest.point_b.x), float(deepest.point_b.y))
             if any(math.dist(point, c.point_xy) < 0.01 for c in out):
                 continue
@@ -295,9 +302,9 @@ class World:
         ):
             if not math.isfinite(float(value)):
                 raise ValueError(f"{name} must be finite, got {value!r}")
-        v = float(np.clip(forward_speed_m_s, -cfg.max_speed_m_s, cfg.max_speed_m_s))
-        w = float(np.clip(turn_rate_rad_s, -cfg.max_turn_rate_rad_s, cfg.max_turn_rate_rad_s))
-        target = float(np.clip(pan_target_rad, -cfg.pan_limit_rad, cfg.pan_limit_rad))
+        v = _clip(float(forward_speed_m_s), cfg.max_speed_m_s)
+        w = _clip(float(turn_rate_rad_s), cfg.max_turn_rate_rad_s)
+        target = _clip(float(pan_target_rad), cfg.pan_limit_rad)
         h = cfg.dt_s / cfg.substeps
         contacts: tuple[Contact, ...] = ()
         distance = 0.0
@@ -312,5 +319,5 @@ class World:
         self.body.velocity = (0.0, 0.0)
         self.body.angular_velocity = 0.0
         max_pan = cfg.max_pan_rate_rad_s * cfg.dt_s
-        self._pan += float(np.clip(target - self._pan, -max_pan, max_pan))
+        self._pan += _clip(target - self._pan, max_pan)
         return StepResult(collided=bool(contacts), distance_m=distance, contacts=contacts)

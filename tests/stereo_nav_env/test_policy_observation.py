@@ -12,7 +12,7 @@ import pytest
 import stereo_nav_env  # noqa: F401  (registers the ids)
 from stereo_nav_env.config import EnvConfig, ObservationConfig
 from stereo_nav_env.observation import policy_goal
-from stereo_nav_env.raster import UNSEEN_VALUE
+from stereo_nav_env.raster import UNSEEN_VALUE, view_masks, visible_mask, world_to_raster
 
 SEEN_FREE, OCCLUDED, NEVER_SEEN = 2, 3, 4
 
@@ -124,3 +124,20 @@ def test_set_scenario_changes_the_family_of_the_next_reset() -> None:
 def test_goal_range_must_be_positive() -> None:
     with pytest.raises(ValueError, match="goal_range_m"):
         EnvConfig.from_kwargs(goal_range_m=0.0)
+
+
+def test_the_visible_mask_is_view_masks_visible_on_the_grid_and_the_raster() -> None:
+    env = _v1(scenario="office")
+    env.reset(seed=2)
+    base = env.unwrapped
+    occluded_views = 0
+    for i in range(40):
+        env.step(np.array([0.5, 0.3 * math.sin(i / 5.0), 0.8 * math.sin(i / 4.0)], np.float32))
+        model, near = base.model, base.config.blind_range_m
+        occluded_views += bool(model.occluded)
+        grid = base._seen
+        maps = [grid._grid_map, world_to_raster(base.robot_pose, base.config.observation)]
+        for (A, b), shape in zip(maps, [grid.grid.shape, (64, 64)], strict=True):
+            visible, _ = view_masks(model, A, b, shape, near)
+            np.testing.assert_array_equal(visible_mask(model, A, b, shape, near), visible)
+    assert occluded_views > 10

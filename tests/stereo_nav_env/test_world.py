@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from stereo_nav_env.scenes import Obstacle, Scene, generate_scene, make_obstacle, oriented_rect
-from stereo_nav_env.world import World, WorldConfig
+from stereo_nav_env.world import World, WorldConfig, _clip
 
 
 def _scene(*obstacles: Obstacle, start: tuple[float, float, float] = (1.0, 2.0, 0.0)) -> Scene:
@@ -147,3 +147,11 @@ def test_invalid_commands_are_named() -> None:
         world.step(0.1, float("nan"), 0.0)
     with pytest.raises(ValueError, match="scene"):
         World("not a scene")  # type: ignore[arg-type]
+
+
+def test_clip_is_numpys_to_the_sign_of_zero() -> None:
+    for value in (-2.0, -1.0, -0.5, -0.0, 0.0, 1e-300, 0.5, 1.0, 2.0, math.pi):
+        for limit in (0.0, 0.5, 1.0, math.pi / 2):
+            want = float(np.clip(value, -limit, limit))
+            got = _clip(value, limit)
+            assert got == want and math.copysign(1.0, got) == math.copysign(1.0, want)
