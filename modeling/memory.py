@@ -8,7 +8,8 @@ environment using data from a sequence of observations"). :func:`fuse` folds one
 1. **Association** (:mod:`modeling.memory_association`): each new unambiguous segment is paired
    with a remembered one by a chi-square gate on the 4-dof endpoint difference (both orders),
    one-to-one (:func:`scipy.optimize.linear_sum_assignment`); a pair fuses as the product of the
-   endpoint Gaussians. A new segment that matches no remembered segment but a candidate of a
+   endpoint Gaussians, the new view's information weighted by how new its viewpoint is (see
+   *Correlated views* below). A new segment that matches no remembered segment but a candidate of a
    remembered ambiguity is evidence for that candidate (and fuses into it); any other enters as a
    new segment with ``initial_existence``. Only the endpoint gate is used: a longer or shorter
    piece of a remembered edge enters as a segment of its own.
@@ -28,7 +29,9 @@ environment using data from a sequence of observations"). :func:`fuse` folds one
    then between their candidates). Each remembered candidate ``i`` is re-weighted by Bayes,
    ``p_i' ∝ p_i r_i`` and ``p_none' ∝ p_none`` (``p_none = 1 - sum p``: "no obstacle here", the
    reference hypothesis, under which every candidate is a false match): ``r_i = pd / pf`` when a
-   new unambiguous segment coincides with it, ``1 + q_j (pd / pf - 1)`` when candidate ``j``
+   new unambiguous segment coincides with it, or a remembered segment that the new view detects
+   (after its fusion; a candidate and a segment in one place are one edge, and the detection is
+   evidence for both), ``1 + q_j (pd / pf - 1)`` when candidate ``j``
    (probability ``q_j``) of the new ambiguous segment does, ``(1 - pd) / (1 - pf)`` when it lies
    in the floor seen free and nothing coincides, 1 otherwise. A candidate whose posterior reaches
    ``resolve_probability`` becomes an ordinary segment (existence: its posterior; fused into
@@ -54,9 +57,17 @@ faded by free-space evidence, replaced by a newer contact within ``contact_merge
 contacts and the open ambiguities, at the latest viewpoint), so its critical regions carry the
 narrowed widths of the fused endpoints.
 
-Every view is taken as independent evidence: a robot standing still sees the same (possibly
-false) match again and again, and its existence and covariance move as if the views were
-independent.
+*Correlated views.* Two views from nearly one viewpoint share most of their errors (the same
+edge at the same image position, the same quantisation); only the pixel noise is new. The
+endpoint information a view adds to a remembered segment is therefore weighted by
+:func:`view_weight`: ``repeat_information`` (0.5) from the viewpoint the segment was last fused
+from (:attr:`ModelMemory.fused_from`), rising linearly to 1 (the plain product of Gaussians) at
+``independent_baseline_m`` (0.5 m) from it: a robot standing still gains half a view's
+information per view, one driving past gains about one view's per half metre. On the office
+drive of ``scripts/memory_eval.py`` this brings the fused endpoints' 95 % coverage from 0.89 to
+0.91 (the single view's: 0.98). Existence and the candidates' probabilities still take every view
+as independent evidence: a robot standing still that sees the same false match again and again
+makes it confident.
 
 Frames: world, metres; covariances m^2; angles radians; probabilities in [0, 1].
 """
@@ -118,6 +129,13 @@ class MemoryOptions:
             scaled down), in [0, 1). A new ambiguity may be a false match altogether; with the
             default (the false-match rate) one whose every candidate is seen free goes after
             four such views (with 0 it would stay until the bound drops it).
+        independent_baseline_m: A view from at least this far (metres) from the viewpoint a
+            segment was last fused from counts as independent evidence of its endpoints; a
+            nearer one is weighted down (:func:`view_weight`); 0: every view counts as
+            independent (>= 0).
+        repeat_information: The weight of a view from the very viewpoint of the last fusion, as a
+            fraction of an independent one, in (0, 1]: its pixel noise is new, its systematic
+            errors (edge localisation, quantisation of the same image positions) are not.
         max_segments: At most this many remembered segments (>= 1).
         max_ambiguous: At most this many open ambiguities (>= 0).
         max_contacts: At most this many contacts (>= 0).
@@ -153,6 +171,8 @@ class MemoryOptions:
     resolve_probability: float = 0.95
     min_candidate_probability: float = 0.01
     none_prior: float = 0.05
+    independent_baseline_m: float = 0.5
+    repeat_information: float = 0.5
     max_segments: int = 400
     max_ambiguous: int = 64
     max_contacts: int = 64
@@ -202,7 +222,16 @@ class MemoryOptions:
         ):
             object.__setattr__(self, name, integer(getattr(self, name), name, low=low))
         unit("half_vfov_rad", high=math.pi / 2)
-        for name in ("free_margin_m", "near_range_m", "contact_merge_m", "head_height_m"):
+        unit("repeat_information", strict=False)
+        if self.repeat_information <= 0.0:
+            raise ValueError(f"repeat_information must be > 0, got {self.repeat_information}")
+        for name in (
+            "free_margin_m",
+            "near_range_m",
+            "contact_merge_m",
+            "head_height_m",
+            "independent_baseline_m",
+        ):
             object.__setattr__(self, name, positive(getattr(self, name), name, allow_zero=True))
         for name in ("seen_tolerance_m", "contact_length_m", "contact_sigma_m"):
             object.__setattr__(self, name, positive(getattr(self, name), name))
@@ -232,6 +261,8 @@ class ModelMemory:
         report_existence: :meth:`observation` keeps the segments at least this probable.
         segment_arrays: The segments as arrays (derived: computed from ``segments`` when None;
             :func:`fuse` passes the arrays it has).
+        fused_from: (n, 2) ``(x_m, y_m)`` of the viewpoint each segment was last fused from
+            (NaN, the default: not known, the next view counts as independent).
         candidate_arrays: The ambiguities' candidates as arrays (derived likewise).
     """
 
@@ -249,6 +280,7 @@ class ModelMemory:
     report_existence: float = 0.3
     segment_arrays: SegmentStack | None = field(default=None, repr=False)
     candidate_arrays: Candidates | None = field(default=None, repr=False)
+    fused_from: FloatArray | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         n = len(self.segments)
@@ -263,6 +295,12 @@ class ModelMemory:
             raise ValueError(f"segment_arrays must have {n} rows")
         if self.candidate_arrays is None:
             object.__setattr__(self, "candidate_arrays", candidates_of(self.ambiguous))
+        origins = np.full((n, 2), np.nan) if self.fused_from is None else self.fused_from
+        origins = np.array(origins, dtype=np.float64)
+        if origins.shape != (n, 2):
+            raise ValueError(f"fused_from must have shape ({n}, 2), got {origins.shape}")
+        origins.setflags(write=False)
+        object.__setattr__(self, "fused_from", origins)
         for name, length in (
             ("existence", n),
             ("last_seen", n),
@@ -337,6 +375,24 @@ def _seen_free(vis: Visibility, segs: SegmentStack, opts: MemoryOptions) -> np.n
     return out
 
 
+def view_weight(
+    fused_from: FloatArray, viewpoint: FloatArray, opts: MemoryOptions
+) -> FloatArray | None:
+    """(k,) the information weight of a new view of segments last fused from ``fused_from``
+    (k, 2), seen now from ``viewpoint`` (2,): ``repeat_information + (1 - repeat_information)
+    min(1, d / independent_baseline_m)`` for a viewpoint ``d`` metres away, 1 where
+    ``fused_from`` is NaN (not known); None (every weight 1: the plain product) when
+    ``independent_baseline_m`` is 0."""
+    if opts.independent_baseline_m <= 0.0:
+        return None
+    d = np.hypot(fused_from[:, 0] - viewpoint[0], fused_from[:, 1] - viewpoint[1])
+    k = opts.repeat_information
+    out: FloatArray = np.where(
+        np.isnan(d), 1.0, k + (1.0 - k) * np.minimum(d / opts.independent_baseline_m, 1.0)
+    )
+    return out
+
+
 def _keep_bounded(n: int, limit: int, keys: tuple[np.ndarray, ...]) -> np.ndarray:
     """Indices (ascending) of at most ``limit`` of ``n`` items, dropping those first in the
     lexicographic order of ``keys`` (the first key most significant)."""
@@ -395,7 +451,13 @@ def fuse(
     assert mem is not None and memory.candidate_arrays is not None  # set by __post_init__
     pairs = assign(gated_pairs(new.ends, new.cov, mem.ends, mem.cov, opts.gate_chi2))
     segments = list(memory.segments)
-    fused, fused_arrays = fused_segments(mem, new, pairs)
+    here = observation.viewpoint[:2]
+    assert memory.fused_from is not None  # set by __post_init__
+    fused_from = memory.fused_from.copy()
+    fused, fused_arrays = fused_segments(
+        mem, new, pairs, view_weight(fused_from[pairs.cols], here, opts)
+    )
+    fused_from[pairs.cols] = here
     for k, seg in zip(pairs.cols.tolist(), fused, strict=True):
         segments[k] = seg
     current = replaced(mem, pairs.cols, fused_arrays)
@@ -414,12 +476,19 @@ def fuse(
         lambda segs: _seen_free(vis, segs, opts),
         opts=opts,
         view=view,
+        detected_segments=fused_arrays,
     )
     prior = np.asarray(memory.existence, dtype=np.float64)
     fresh = explain_new(observation.ambiguous, amb, current, prior, opts)
     absorbed = fresh.absorbed
     if absorbed.rows.shape[0]:
-        more, more_arrays = fused_segments(current, amb.new_candidates.stack, absorbed)
+        more, more_arrays = fused_segments(
+            current,
+            amb.new_candidates.stack,
+            absorbed,
+            view_weight(fused_from[absorbed.cols], here, opts),
+        )
+        fused_from[absorbed.cols] = here
         for k, seg in zip(absorbed.cols.tolist(), more, strict=True):
             segments[k] = seg
         current = replaced(current, absorbed.cols, more_arrays)
@@ -460,6 +529,9 @@ def fuse(
             np.array([min(resolved[i][1], opts.max_existence) for i in adding.tolist()]),
         ]
     )
+    all_from = np.concatenate(
+        [fused_from, np.tile(here, (entering.shape[0], 1)), np.full((adding.shape[0], 2), np.nan)]
+    )
     all_seen = np.concatenate(
         [
             last_seen,
@@ -495,6 +567,7 @@ def fuse(
         ambiguous_seen=tuple(amb_seen),
         report_existence=opts.report_existence,
         segment_arrays=take(arrays, keep),
+        fused_from=all_from[keep],
     )
 
 

@@ -6,7 +6,9 @@ A remembered ambiguity has candidates ``c_i`` with probabilities ``p_i`` and the
 one" and "none is", and every other candidate is then a false match. With the sensor model of
 the memory (a real segment in the floor seen free is detected with ``pd``; a false one appears
 with ``pf``), the likelihood of a new view under hypothesis ``i`` divided by that under "none"
-depends on ``c_i`` alone: ``r_i = pd / pf`` when ``c_i`` is detected, ``(1 - pd) / (1 - pf)``
+depends on ``c_i`` alone: ``r_i = pd / pf`` when ``c_i`` is detected (by a new unambiguous
+segment, or by the new view's detection of a remembered segment that coincides with it: one
+edge, remembered twice), ``(1 - pd) / (1 - pf)``
 when it lies in the floor seen free and is not, 1 when the view does not see it. So
 ``p_i' ∝ p_i r_i`` and ``p_none' ∝ p_none``. A detection by candidate ``j`` of a new ambiguous
 segment, itself real with probability ``q_j``, counts as ``r_i = 1 + q_j (pd / pf - 1)`` (the
@@ -121,6 +123,7 @@ def reweight(
     *,
     opts: Any,
     view: int,
+    detected_segments: SegmentStack,
 ) -> AmbiguityUpdate:
     """One view's evidence on the remembered ambiguities (see the module docstring).
 
@@ -134,6 +137,9 @@ def reweight(
         vis_free: A function :class:`SegmentStack` -> (n,) bool, "seen free by the new view".
         opts: The :class:`~modeling.memory.MemoryOptions`.
         view: The number of the new view (1-based).
+        detected_segments: The remembered segments the new view detected, after their fusion: a
+            candidate that coincides with one (gate, one-to-one) and has no other detection gains
+            ``pd / pf`` (its geometry is not fused).
     """
     pd, pf, gate = opts.detection_probability, opts.false_match_rate, opts.gate_chi2
     hit_ratio = pd / pf
@@ -151,6 +157,13 @@ def reweight(
         cand[k] = seg
     ratio[seg_pairs.cols] = hit_ratio
     touched[seg_pairs.cols] = True
+    # (a') remembered segments detected by this view that coincide with a candidate
+    det = detected_segments
+    if det.ends.shape[0] and n_mem:
+        det_pairs = gated_pairs(det.ends, det.cov, mem.stack.ends, mem.stack.cov, gate)
+        det_pairs = assign(subset(det_pairs, ~touched[det_pairs.cols]))
+        ratio[det_pairs.cols] = hit_ratio
+        touched[det_pairs.cols] = True
     # (b) new ambiguous segments whose candidates match a remembered ambiguity's
     matched_new = np.zeros(len(new_ambiguous), dtype=bool)
     pairs = gated_pairs(new.stack.ends, new.stack.cov, mem.stack.ends, mem.stack.cov, gate)

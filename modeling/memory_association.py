@@ -9,7 +9,8 @@ the smaller distance counts; a pair is *gated* when it is at most the chi-square
 ``chi2.ppf(0.99, 4) = 13.28``). Gated pairs are assigned one-to-one by
 :func:`scipy.optimize.linear_sum_assignment` (most pairs first, then the smallest total
 distance). An associated pair fuses endpoint by endpoint as the product of Gaussians
-(:func:`gaussian_product`, information form).
+(:func:`gaussian_product`, information form; the new factor's information optionally weighted,
+for views that share errors with earlier ones).
 
 Only the endpoint gate is used: a segment seen from a new viewpoint as a longer or shorter piece
 of the same edge (clipped by the image border or by an occluder) fails the gate at the clipped
@@ -169,14 +170,21 @@ def assign(pairs: Association) -> Association:
 
 
 def gaussian_product(
-    mean_a: FloatArray, cov_a: FloatArray, mean_b: FloatArray, cov_b: FloatArray
+    mean_a: FloatArray,
+    cov_a: FloatArray,
+    mean_b: FloatArray,
+    cov_b: FloatArray,
+    weight_b: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """The product of Gaussians ``N(mean_a, cov_a) N(mean_b, cov_b)``, normalised, in information
-    form: ``P = (A^-1 + B^-1)^-1``, ``m = P (A^-1 a + B^-1 b)``.
+    form: ``P = (A^-1 + B^-1)^-1``, ``m = P (A^-1 a + B^-1 b)``; with ``weight_b`` ``w``, the
+    second factor's information is ``w B^-1`` (the Gaussian raised to the power ``w``: a
+    measurement worth a fraction ``w`` of an independent one).
 
     Args:
         mean_a: (..., 2) means, metres; cov_a (..., 2, 2) covariances, m^2 (positive definite).
         mean_b: (..., 2) and cov_b (..., 2, 2): the other factor.
+        weight_b: (...) weights in (0, 1] of the second factor (default: 1).
 
     Returns:
         ``(mean, cov)`` of the same shapes (the covariance exactly symmetric: closed-form 2x2
@@ -184,6 +192,8 @@ def gaussian_product(
     """
     inv_a = _inverse(cov_a)
     inv_b = _inverse(cov_b)
+    if weight_b is not None:
+        inv_b = inv_b * np.asarray(weight_b)[..., None, None]
     cov = _inverse(inv_a + inv_b)
     info = np.einsum("...ij,...j->...i", inv_a, mean_a) + np.einsum(
         "...ij,...j->...i", inv_b, mean_b
@@ -272,18 +282,20 @@ def stack_of(segs: tuple[FloorSegment, ...] | list[FloorSegment]) -> SegmentStac
 
 
 def fused_segments(
-    mem: SegmentStack, new: SegmentStack, pairs: Association
+    mem: SegmentStack, new: SegmentStack, pairs: Association, weight: FloatArray | None = None
 ) -> tuple[list[FloorSegment], SegmentStack]:
     """The remembered segments ``pairs.cols`` fused with the new ones ``pairs.rows`` (aligned by
-    ``pairs.swapped``): the product of the endpoint Gaussians, the larger heights, the new
-    segment's source. One segment per pair, in the pairs' order, and their arrays."""
+    ``pairs.swapped``): the product of the endpoint Gaussians (the new one's information times
+    ``weight`` (k,), one per pair, when given), the larger heights, the new segment's source. One
+    segment per pair, in the pairs' order, and their arrays."""
     rows, cols, swapped = pairs.rows, pairs.cols, pairs.swapped
     if rows.shape[0] == 0:
         return [], stack_of([])
     ends = np.where(swapped[:, None, None], new.ends[rows][:, ::-1], new.ends[rows])
     cov = np.where(swapped[:, None, None, None], new.cov[rows][:, ::-1], new.cov[rows])
     heights = np.where(swapped[:, None], new.heights[rows][:, ::-1], new.heights[rows])
-    mean, P = gaussian_product(mem.ends[cols], mem.cov[cols], ends, cov)
+    w = None if weight is None else np.repeat(np.asarray(weight)[:, None], 2, axis=1)
+    mean, P = gaussian_product(mem.ends[cols], mem.cov[cols], ends, cov, w)
     top = np.maximum(mem.heights[cols], heights)
     src = new.source[rows]
     segs = [trusted_segment(mean[k], P[k], top[k], s) for k, s in enumerate(src.tolist())]
