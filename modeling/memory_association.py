@@ -28,6 +28,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from modeling._compiled.association import gate_pairs
 from modeling.observation import FloorSegment
 from modeling.validation import FloatArray
 
@@ -39,6 +40,7 @@ __all__ = [
     "endpoint_distances",
     "fused_segments",
     "gated_pairs",
+    "gated_pairs_reference",
     "gaussian_product",
     "odds_update",
     "replaced",
@@ -114,7 +116,37 @@ def gated_pairs(
     mem_cov: FloatArray,
     gate_chi2: float,
 ) -> Association:
-    """Every (new, remembered) pair whose endpoint distance is within the gate.
+    """Every (new, remembered) pair whose endpoint distance is within the gate, ordered by row
+    then column: :func:`gated_pairs_reference` (its prefilter, its distances), compiled
+    (:func:`modeling._compiled.association.gate_pairs`; the same results).
+
+    Args:
+        new_ends: (n, 2, 2) new segments' endpoint means, metres; new_cov (n, 2, 2, 2), m^2.
+        mem_ends: (m, 2, 2) remembered segments' endpoint means; mem_cov (m, 2, 2, 2).
+        gate_chi2: The gate on the squared Mahalanobis distance (4 dof).
+    """
+    if new_ends.shape[0] == 0 or mem_ends.shape[0] == 0:
+        return _EMPTY
+    rows, cols, d2, swapped = gate_pairs(
+        np.ascontiguousarray(new_ends, dtype=np.float64),
+        np.ascontiguousarray(new_cov, dtype=np.float64),
+        np.ascontiguousarray(mem_ends, dtype=np.float64),
+        np.ascontiguousarray(mem_cov, dtype=np.float64),
+        float(gate_chi2),
+    )
+    return Association(rows=rows, cols=cols, d2=d2, swapped=swapped)
+
+
+def gated_pairs_reference(
+    new_ends: FloatArray,
+    new_cov: FloatArray,
+    mem_ends: FloatArray,
+    mem_cov: FloatArray,
+    gate_chi2: float,
+) -> Association:
+    """Every (new, remembered) pair whose endpoint distance is within the gate (the readable
+    version of :func:`gated_pairs`, which runs the compiled loop
+    :func:`modeling._compiled.association.gate_pairs`).
 
     A prefilter on the midpoints drops pairs that cannot pass: a gated pair has
     ``|d_e|^2 <= gate * lambda_max(A_e + B_e) <= gate * (tr A_e + tr B_e)`` at each endpoint, so
@@ -150,10 +182,10 @@ def assign(pairs: Association) -> Association:
     gated pair; deterministic). Ordered by row."""
     if pairs.rows.shape[0] == 0:
         return pairs
+    if np.bincount(pairs.rows).max() == 1 and np.bincount(pairs.cols).max() == 1:
+        return pairs  # already one-to-one
     urows, ri = np.unique(pairs.rows, return_inverse=True)
     ucols, ci = np.unique(pairs.cols, return_inverse=True)
-    if urows.shape[0] == pairs.rows.shape[0] and ucols.shape[0] == pairs.cols.shape[0]:
-        return pairs  # already one-to-one
     cost = np.full((urows.shape[0], ucols.shape[0]), _BIG)
     cost[ri, ci] = pairs.d2
     index = np.full(cost.shape, -1, dtype=np.int64)
@@ -232,16 +264,17 @@ _EXTRA_FIELDS = tuple(
 
 
 def trusted_segment(
-    ends: FloatArray, cov: FloatArray, heights: FloatArray, source: int
+    ends: FloatArray, cov: FloatArray, heights: FloatArray, source: int, *, copy: bool = True
 ) -> FloorSegment:
     """A :class:`~modeling.observation.FloorSegment` of values computed by the memory (finite;
     covariances positive definite by construction: products of positive-definite Gaussians),
     made without its validation, which costs 30 us a segment on the project machine (the largest
     cost of a fuse otherwise). The arrays are copied and made read-only, as the validated
-    constructor does."""
+    constructor does; with ``copy`` False they are taken as they are (float64 arrays of no one
+    else: the caller's fresh results) and only made read-only."""
     seg: FloorSegment = object.__new__(FloorSegment)
     for name, value in (("endpoints", ends), ("cov", cov), ("height_m", heights)):
-        arr = np.array(value, dtype=np.float64)
+        arr = np.array(value, dtype=np.float64) if copy else value
         arr.setflags(write=False)
         object.__setattr__(seg, name, arr)
     object.__setattr__(seg, "source", int(source))
@@ -266,13 +299,24 @@ class SegmentStack(NamedTuple):
     source: np.ndarray
 
 
+def _read_only(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    for arr in arrays:
+        arr.setflags(write=False)
+    return arrays
+
+
+_EMPTY_STACK = SegmentStack(
+    *_read_only(
+        np.zeros((0, 2, 2)), np.zeros((0, 2, 2, 2)), np.zeros((0, 2)), np.zeros(0, np.int64)
+    )
+)
+
+
 def stack_of(segs: tuple[FloorSegment, ...] | list[FloorSegment]) -> SegmentStack:
     """The arrays of ``segs`` (one concatenation per field)."""
     n = len(segs)
     if n == 0:
-        return SegmentStack(
-            np.zeros((0, 2, 2)), np.zeros((0, 2, 2, 2)), np.zeros((0, 2)), np.zeros(0, np.int64)
-        )
+        return _EMPTY_STACK
     return SegmentStack(
         np.concatenate([s.endpoints for s in segs]).reshape(n, 2, 2),
         np.concatenate([s.cov for s in segs]).reshape(n, 2, 2, 2),
@@ -298,7 +342,10 @@ def fused_segments(
     mean, P = gaussian_product(mem.ends[cols], mem.cov[cols], ends, cov, w)
     top = np.maximum(mem.heights[cols], heights)
     src = new.source[rows]
-    segs = [trusted_segment(mean[k], P[k], top[k], s) for k, s in enumerate(src.tolist())]
+    # rows of fresh arrays: each segment's arrays are views (made read-only), not copies
+    segs = [
+        trusted_segment(mean[k], P[k], top[k], s, copy=False) for k, s in enumerate(src.tolist())
+    ]
     return segs, SegmentStack(mean, P, top, src)
 
 
