@@ -369,7 +369,8 @@ def _seen_free(vis: Visibility, segs: SegmentStack, opts: MemoryOptions) -> np.n
     n = ends.shape[0]
     if n == 0:
         return np.zeros(0, dtype=bool)
-    pts = np.concatenate([ends[:, 0], ends[:, 1], ends.mean(axis=1)])
+    mid = (ends[:, 0] + ends[:, 1]) / 2.0  # = ends.mean(axis=1), bit for bit, but cheaper
+    pts = np.concatenate([ends[:, 0], ends[:, 1], mid])
     near = np.tile(_near_limit(opts, segs.heights.max(axis=1)), 3)
     out: np.ndarray = np.all(vis.seen_free(pts, opts.free_margin_m, near).reshape(3, n), axis=0)
     return out
@@ -391,6 +392,35 @@ def view_weight(
         np.isnan(d), 1.0, k + (1.0 - k) * np.minimum(d / opts.independent_baseline_m, 1.0)
     )
     return out
+
+
+def _candidates_from(
+    ambiguous: tuple[AmbiguousSegment, ...], sources: tuple[Candidates, ...]
+) -> Candidates:
+    """:func:`~modeling.memory_ambiguity.candidates_of` of ``ambiguous`` (the same arrays), the
+    rows of candidates that ``sources`` hold (the same objects) taken from their arrays and only
+    the others stacked: most ambiguities are out of view and unchanged from view to view."""
+    segs = [c for a in ambiguous for c in a.candidates]
+    row_of: dict[int, int] = {}
+    offset = 0
+    for src in sources:
+        for k, seg in enumerate(src.segments):
+            row_of.setdefault(id(seg), offset + k)
+        offset += len(src.segments)
+    rows = [row_of.get(id(seg), -1) for seg in segs]
+    missing = [i for i, r in enumerate(rows) if r < 0]
+    for j, i in enumerate(missing):
+        rows[i] = offset + j
+    extra = stack_of([segs[i] for i in missing])
+    stack = take(concat(*(src.stack for src in sources), extra), np.array(rows, dtype=np.int64))
+    return Candidates(
+        stack=stack,
+        owner=np.repeat(
+            np.arange(len(ambiguous), dtype=np.int64), [len(a.candidates) for a in ambiguous]
+        ),
+        prob=np.array([p for a in ambiguous for p in a.probabilities], dtype=np.float64),
+        segments=segs,
+    )
 
 
 def _keep_bounded(n: int, limit: int, keys: tuple[np.ndarray, ...]) -> np.ndarray:
@@ -517,7 +547,9 @@ def fuse(
             existence[k] = max(existence[k], min(resolved[r][1], opts.max_existence))
             last_seen[k] = max(last_seen[k], resolved[r][2])
         current = replaced(current, res_pairs.cols, more_arrays)
-    adding = np.setdiff1d(np.arange(len(resolved)), res_pairs.rows)
+    not_fused = np.ones(len(resolved), dtype=bool)
+    not_fused[res_pairs.rows] = False
+    adding = np.flatnonzero(not_fused)
     entering = np.delete(rest, amb.consumed)
     all_segments = segments + [observation.segments[i] for i in entering.tolist()]
     all_segments += [resolved[i][0] for i in adding.tolist()]
@@ -567,6 +599,7 @@ def fuse(
         ambiguous_seen=tuple(amb_seen),
         report_existence=opts.report_existence,
         segment_arrays=take(arrays, keep),
+        candidate_arrays=_candidates_from(ambiguous, (memory.candidate_arrays, new_cands)),
         fused_from=all_from[keep],
     )
 

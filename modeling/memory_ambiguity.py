@@ -20,6 +20,7 @@ Frames: world, metres; covariances m^2.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -106,7 +107,7 @@ def _ambiguity_pairs(
     b, a = new_owner[cand_pairs.rows], mem_owner[cand_pairs.cols]
     order = np.lexsort((cand_pairs.d2, a, b))
     b, a, d2 = b[order], a[order], cand_pairs.d2[order]
-    first = np.r_[True, (b[1:] != b[:-1]) | (a[1:] != a[:-1])]
+    first = np.concatenate(([True], (b[1:] != b[:-1]) | (a[1:] != a[:-1])))
     return Association(
         rows=b[first], cols=a[first], d2=d2[first], swapped=np.zeros(first.sum(), bool)
     )
@@ -190,7 +191,7 @@ def reweight(
     n_amb = len(remembered)
     if n_amb:
         counts = np.bincount(mem.owner, minlength=n_amb)
-        starts = np.r_[0, np.cumsum(counts)[:-1]]
+        starts = np.cumsum(counts) - counts
         changed = np.add.reduceat((ratio != 1.0).astype(np.int64), starts) > 0
         detected = np.add.reduceat(touched.astype(np.int64), starts) > 0
         w = mem.prob * ratio
@@ -206,7 +207,7 @@ def reweight(
             )
         )
         ratio_l, prob_l, post_l = ratio.tolist(), mem.prob.tolist(), post.tolist()
-        bounds = np.c_[starts, starts + counts].tolist()
+        bounds = list(zip(starts.tolist(), (starts + counts).tolist(), strict=True))
         for a, amb in enumerate(remembered):
             last = view if detected[a] else remembered_seen[a]
             lo, hi = bounds[a]
@@ -329,7 +330,7 @@ def explain_new(
     out: list[AmbiguousSegment] = []
     resolved: list[tuple[FloorSegment, float]] = []
     absorbed: list[tuple[int, int, bool]] = []
-    offsets = np.r_[0, np.cumsum([len(a.candidates) for a in new_ambiguous])].tolist()
+    offsets = [0, *itertools.accumulate(len(a.candidates) for a in new_ambiguous)]
     for b in update.new_unmatched.tolist():
         amb = _with_none_prior(new_ambiguous[b], opts.none_prior)
         lo, hi = offsets[b], offsets[b + 1]

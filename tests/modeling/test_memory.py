@@ -22,6 +22,8 @@ from modeling import (
     build_memory_model,
     fuse,
 )
+from modeling.memory_ambiguity import candidates_of
+from modeling.memory_association import stack_of
 
 PD, PF = 0.8, 0.05  # the default detection probability and false-match rate
 HIT, MISS = PD / PF, (1 - PD) / (1 - PF)  # the likelihood ratios of a detection and of a miss
@@ -236,6 +238,35 @@ def test_memory_size_stays_bounded_over_500_steps() -> None:
         assert len(memory.contacts) <= 5
         assert shapely.get_num_coordinates(memory.seen) <= 400
     assert len(memory.segments) == 120 and memory.views == 500
+
+
+def test_the_arrays_fuse_carries_equal_those_of_its_segments_and_candidates() -> None:
+    # fuse reuses the rows of unchanged candidates and segments; they must equal a fresh stack
+    rng = np.random.default_rng(5)
+    memory = ModelMemory.empty()
+    for k in range(40):
+        x = 0.1 * k
+        segs = tuple(seg(p, p + rng.normal(size=2) * 0.2) for p in rng.uniform(2, 6, (8, 2)))
+        ambs = tuple(
+            AmbiguousSegment(
+                candidates=(seg(p, p + np.array([0.1, 0.3])), seg(p + 1.0, p + 1.2)),
+                probabilities=(0.6, 0.4),
+            )
+            for p in rng.uniform([x + 2, -2], [x + 5, 2], size=(3, 2))
+        )
+        memory = fuse(memory, view(segs, ambs, at=(x, 0.0, 0.1 * math.sin(k))))
+        cands, fresh = memory.candidate_arrays, candidates_of(memory.ambiguous)
+        assert cands is not None and memory.segment_arrays is not None
+        for got, want in zip(
+            (*cands.stack, cands.owner, cands.prob),
+            (*fresh.stack, fresh.owner, fresh.prob),
+            strict=True,
+        ):
+            np.testing.assert_array_equal(got, want)
+        assert all(a is b for a, b in zip(cands.segments, fresh.segments, strict=True))
+        for got, want in zip(memory.segment_arrays, stack_of(memory.segments), strict=True):
+            np.testing.assert_array_equal(got, want)
+    assert len(memory.ambiguous) > 5  # some candidates stayed unchanged for several views
 
 
 def test_the_bound_drops_the_lowest_existence_then_the_oldest() -> None:
