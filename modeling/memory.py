@@ -83,6 +83,7 @@ import numpy as np
 import shapely
 from numpy.typing import ArrayLike
 
+from modeling._compiled.visibility import segments_seen_free
 from modeling.memory_ambiguity import Candidates, candidates_of, explain_new, reweight
 from modeling.memory_association import (
     SegmentStack,
@@ -364,7 +365,26 @@ def _near_limit(opts: MemoryOptions, top_m: FloatArray | float) -> FloatArray:
 
 def _seen_free(vis: Visibility, segs: SegmentStack, opts: MemoryOptions) -> np.ndarray:
     """(n,) bool: both endpoints and the midpoint of each segment are seen free, each judged
-    at the segment's top height (the part of an obstacle that could be seen)."""
+    at the segment's top height (the part of an obstacle that could be seen):
+    :func:`_seen_free_reference`, compiled (:func:`modeling._compiled.visibility.
+    segments_seen_free`; the same results)."""
+    if segs.ends.shape[0] == 0:
+        return np.zeros(0, dtype=bool)
+    out: np.ndarray = segments_seen_free(
+        np.ascontiguousarray(segs.ends),
+        segs.heights.max(axis=1),
+        vis.origin,
+        vis.heading,
+        vis.half_fov,
+        vis.reach,
+        opts.free_margin_m,
+        np.array([opts.near_range_m, opts.head_height_m, math.tan(opts.half_vfov_rad)]),
+    )
+    return out
+
+
+def _seen_free_reference(vis: Visibility, segs: SegmentStack, opts: MemoryOptions) -> np.ndarray:
+    """:func:`_seen_free` in NumPy, through :meth:`Visibility.seen_free` (the readable version)."""
     ends = segs.ends
     n = ends.shape[0]
     if n == 0:

@@ -28,7 +28,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from modeling._compiled.association import gate_pairs
+from modeling._compiled.association import fuse_pairs, gate_pairs
 from modeling.observation import FloorSegment
 from modeling.validation import FloatArray
 
@@ -39,6 +39,7 @@ __all__ = [
     "concat",
     "endpoint_distances",
     "fused_segments",
+    "fused_segments_reference",
     "gated_pairs",
     "gated_pairs_reference",
     "gaussian_product",
@@ -331,7 +332,39 @@ def fused_segments(
     """The remembered segments ``pairs.cols`` fused with the new ones ``pairs.rows`` (aligned by
     ``pairs.swapped``): the product of the endpoint Gaussians (the new one's information times
     ``weight`` (k,), one per pair, when given), the larger heights, the new segment's source. One
-    segment per pair, in the pairs' order, and their arrays."""
+    segment per pair, in the pairs' order, and their arrays: :func:`fused_segments_reference`,
+    compiled (:func:`modeling._compiled.association.fuse_pairs`; the same results)."""
+    rows, cols = pairs.rows, pairs.cols
+    if rows.shape[0] == 0:
+        return [], stack_of([])
+    mean, P, top = fuse_pairs(
+        mem.ends,
+        mem.cov,
+        mem.heights,
+        new.ends,
+        new.cov,
+        new.heights,
+        rows,
+        cols,
+        pairs.swapped,
+        np.ones(rows.shape[0]) if weight is None else np.asarray(weight, dtype=np.float64),
+    )
+    src = new.source[rows]
+    # rows of fresh arrays: each segment's arrays are views (made read-only), not copies
+    segs = [
+        trusted_segment(mean[k], P[k], top[k], s, copy=False) for k, s in enumerate(src.tolist())
+    ]
+    return segs, SegmentStack(mean, P, top, src)
+
+
+def fused_segments_reference(
+    mem: SegmentStack, new: SegmentStack, pairs: Association, weight: FloatArray | None = None
+) -> tuple[list[FloorSegment], SegmentStack]:
+    """The remembered segments ``pairs.cols`` fused with the new ones ``pairs.rows`` (aligned by
+    ``pairs.swapped``): the product of the endpoint Gaussians (the new one's information times
+    ``weight`` (k,), one per pair, when given), the larger heights, the new segment's source. One
+    segment per pair, in the pairs' order, and their arrays (the readable version of
+    :func:`fused_segments`)."""
     rows, cols, swapped = pairs.rows, pairs.cols, pairs.swapped
     if rows.shape[0] == 0:
         return [], stack_of([])

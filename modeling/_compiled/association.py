@@ -1,15 +1,18 @@
-"""Compiled loop of the memory's association gate (:mod:`modeling.memory_association`).
+"""Compiled loops of the memory's association and fusion (:mod:`modeling.memory_association`).
 
 :func:`gate_pairs` is :func:`modeling.memory_association.gated_pairs_reference` written as one
 pass over the (new, remembered) pairs: the same midpoint prefilter, then the 4-dof squared
-Mahalanobis distance of the endpoint difference in both orders, with the same arithmetic in the
-same order (so the results are equal, not only close). A fuse gates five stacks against each
-other; in NumPy each gate costs a dozen small array operations (about 0.1 ms), here a few
-microseconds.
+Mahalanobis distance of the endpoint difference in both orders. :func:`fuse_pairs` is the
+arithmetic of :func:`modeling.memory_association.fused_segments_reference` (the endpoints
+aligned, the weighted product of Gaussians of
+:func:`modeling.memory_association.gaussian_product`, the larger heights) as one pass over the
+pairs. Both keep the reference's arithmetic in the same order, so the results are equal, not
+only close. A fuse gates five stacks against each other and fuses two or three; in NumPy each
+costs a dozen small array operations (about 0.1 ms), here a few microseconds.
 
 Compiled with Numba on first use (:mod:`modeling.jit`); importing this module does not import
-Numba. ``tests/modeling/test_compiled_association.py`` compares it with the reference on seeded
-random inputs.
+Numba. ``tests/modeling/test_compiled_association.py`` compares them with the references on
+seeded random inputs.
 """
 
 from __future__ import annotations
@@ -88,3 +91,52 @@ def gate_pairs(
                 swapped[k] = flip
                 k += 1
     return rows[:k].copy(), cols[:k].copy(), d2[:k].copy(), swapped[:k].copy()
+
+
+@compiled_helper
+def _inverse2(a: float, b: float, d: float) -> tuple[float, float, float]:
+    """``(i00, i01, i11)`` of the inverse of ``[[a, b], [b, d]]`` (the reference's closed form)."""
+    det = a * d - b * b
+    return d / det, -b / det, a / det
+
+
+@compiled_on_first_call
+def fuse_pairs(
+    mem_ends: np.ndarray,
+    mem_cov: np.ndarray,
+    mem_heights: np.ndarray,
+    new_ends: np.ndarray,
+    new_cov: np.ndarray,
+    new_heights: np.ndarray,
+    rows: np.ndarray,
+    cols: np.ndarray,
+    swapped: np.ndarray,
+    weight: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(mean, cov, top)`` (k, 2, 2), (k, 2, 2, 2), (k, 2) of the remembered segments ``cols``
+    fused with the new ones ``rows`` (endpoints in reverse where ``swapped``), the new one's
+    information times ``weight`` (k,)."""
+    k = rows.shape[0]
+    mean = np.empty((k, 2, 2))
+    cov = np.empty((k, 2, 2, 2))
+    top = np.empty((k, 2))
+    for p in range(k):
+        r, c, w = rows[p], cols[p], weight[p]
+        for e in range(2):
+            f = 1 - e if swapped[p] else e
+            a00, a01, a11 = _inverse2(mem_cov[c, e, 0, 0], mem_cov[c, e, 0, 1], mem_cov[c, e, 1, 1])
+            b00, b01, b11 = _inverse2(new_cov[r, f, 0, 0], new_cov[r, f, 0, 1], new_cov[r, f, 1, 1])
+            b00, b01, b11 = b00 * w, b01 * w, b11 * w
+            p00, p01, p11 = _inverse2(a00 + b00, a01 + b01, a11 + b11)
+            ax, ay = mem_ends[c, e, 0], mem_ends[c, e, 1]
+            bx, by = new_ends[r, f, 0], new_ends[r, f, 1]
+            ix = (a00 * ax + a01 * ay) + (b00 * bx + b01 * by)
+            iy = (a01 * ax + a11 * ay) + (b01 * bx + b11 * by)
+            mean[p, e, 0] = p00 * ix + p01 * iy
+            mean[p, e, 1] = p01 * ix + p11 * iy
+            cov[p, e, 0, 0] = p00
+            cov[p, e, 0, 1] = p01
+            cov[p, e, 1, 0] = p01
+            cov[p, e, 1, 1] = p11
+            top[p, e] = max(mem_heights[c, e], new_heights[r, f])
+    return mean, cov, top

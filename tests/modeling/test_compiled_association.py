@@ -1,13 +1,20 @@
-"""The compiled association gate (``modeling.memory_association.gated_pairs``, running
-``modeling._compiled.association.gate_pairs``) equals its NumPy reference
-(``modeling.memory_association.gated_pairs_reference``) on seeded random segments."""
+"""The compiled association gate and fusion (``modeling.memory_association.gated_pairs`` and
+``fused_segments``, running ``modeling._compiled.association``) equal their NumPy references
+(``gated_pairs_reference``, ``fused_segments_reference``) on seeded random segments."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from modeling.memory_association import gated_pairs, gated_pairs_reference
+from modeling.memory_association import (
+    Association,
+    SegmentStack,
+    fused_segments,
+    fused_segments_reference,
+    gated_pairs,
+    gated_pairs_reference,
+)
 
 
 def _segments(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -45,3 +52,31 @@ def test_compiled_gate_with_nothing_to_pair() -> None:
         assert got.rows.shape[0] == want.rows.shape[0] == 0
     far = ends + 100.0  # nothing within the gate
     assert gated_pairs(far, cov, ends, cov, 13.28).rows.shape[0] == 0
+
+
+@pytest.mark.parametrize("weighted", [False, True])
+@pytest.mark.parametrize("seed", range(4))
+def test_compiled_fusion_equals_reference(seed: int, weighted: bool) -> None:
+    rng = np.random.default_rng(100 + seed)
+    mem_ends, mem_cov = _segments(rng, 20)
+    new_ends, new_cov = _segments(rng, 12)
+    mem = SegmentStack(mem_ends, mem_cov, rng.uniform(0, 1, (20, 2)), np.arange(20))
+    new = SegmentStack(new_ends, new_cov, rng.uniform(0, 1, (12, 2)), np.arange(12) + 100)
+    pairs = Association(
+        rows=rng.permutation(12)[:8],
+        cols=rng.permutation(20)[:8],
+        d2=np.zeros(8),
+        swapped=rng.uniform(size=8) < 0.5,
+    )
+    weight = rng.uniform(0.5, 1.0, 8) if weighted else None
+    got_segs, got = fused_segments(mem, new, pairs, weight)
+    want_segs, want = fused_segments_reference(mem, new, pairs, weight)
+    for g, w in zip(got, want, strict=True):
+        assert g.dtype == w.dtype
+        np.testing.assert_array_equal(g, w)
+    for g, w in zip(got_segs, want_segs, strict=True):
+        np.testing.assert_array_equal(g.endpoints, w.endpoints)
+        np.testing.assert_array_equal(g.cov, w.cov)
+        np.testing.assert_array_equal(g.height_m, w.height_m)
+        assert g.source == w.source
+    assert np.all(want.heights >= mem.heights[pairs.cols])  # the larger heights
