@@ -17,6 +17,10 @@ of the same edge (clipped by the image border or by an occluder) fails the gate 
 end and enters the memory as a segment of its own; the old piece keeps its existence while its
 ends are out of view. The memory bounds the duplicates that this leaves.
 
+:func:`gated_pairs` and :func:`fused_segments` run compiled loops
+(:mod:`modeling._compiled.association`); :func:`gated_pairs_reference` and
+:func:`fused_segments_reference` are the readable NumPy versions they equal.
+
 Frames: world, metres; covariances m^2.
 """
 
