@@ -6,7 +6,9 @@ A remembered ambiguity has candidates ``c_i`` with probabilities ``p_i`` and the
 one" and "none is", and every other candidate is then a false match. With the sensor model of
 the memory (a real segment in the floor seen free is detected with ``pd``; a false one appears
 with ``pf``), the likelihood of a new view under hypothesis ``i`` divided by that under "none"
-depends on ``c_i`` alone: ``r_i = pd / pf`` when ``c_i`` is detected, ``(1 - pd) / (1 - pf)``
+depends on ``c_i`` alone: ``r_i = pd / pf`` when ``c_i`` is detected (by a new unambiguous
+segment, or by the new view's detection of a remembered segment that coincides with it: one
+edge, remembered twice), ``(1 - pd) / (1 - pf)``
 when it lies in the floor seen free and is not, 1 when the view does not see it. So
 ``p_i' ∝ p_i r_i`` and ``p_none' ∝ p_none``. A detection by candidate ``j`` of a new ambiguous
 segment, itself real with probability ``q_j``, counts as ``r_i = 1 + q_j (pd / pf - 1)`` (the
@@ -18,6 +20,7 @@ Frames: world, metres; covariances m^2.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -104,7 +107,7 @@ def _ambiguity_pairs(
     b, a = new_owner[cand_pairs.rows], mem_owner[cand_pairs.cols]
     order = np.lexsort((cand_pairs.d2, a, b))
     b, a, d2 = b[order], a[order], cand_pairs.d2[order]
-    first = np.r_[True, (b[1:] != b[:-1]) | (a[1:] != a[:-1])]
+    first = np.concatenate(([True], (b[1:] != b[:-1]) | (a[1:] != a[:-1])))
     return Association(
         rows=b[first], cols=a[first], d2=d2[first], swapped=np.zeros(first.sum(), bool)
     )
@@ -121,6 +124,7 @@ def reweight(
     *,
     opts: Any,
     view: int,
+    detected_segments: SegmentStack,
 ) -> AmbiguityUpdate:
     """One view's evidence on the remembered ambiguities (see the module docstring).
 
@@ -134,6 +138,9 @@ def reweight(
         vis_free: A function :class:`SegmentStack` -> (n,) bool, "seen free by the new view".
         opts: The :class:`~modeling.memory.MemoryOptions`.
         view: The number of the new view (1-based).
+        detected_segments: The remembered segments the new view detected, after their fusion: a
+            candidate that coincides with one (gate, one-to-one) and has no other detection gains
+            ``pd / pf`` (its geometry is not fused).
     """
     pd, pf, gate = opts.detection_probability, opts.false_match_rate, opts.gate_chi2
     hit_ratio = pd / pf
@@ -151,6 +158,13 @@ def reweight(
         cand[k] = seg
     ratio[seg_pairs.cols] = hit_ratio
     touched[seg_pairs.cols] = True
+    # (a') remembered segments detected by this view that coincide with a candidate
+    det = detected_segments
+    if det.ends.shape[0] and n_mem:
+        det_pairs = gated_pairs(det.ends, det.cov, mem.stack.ends, mem.stack.cov, gate)
+        det_pairs = assign(subset(det_pairs, ~touched[det_pairs.cols]))
+        ratio[det_pairs.cols] = hit_ratio
+        touched[det_pairs.cols] = True
     # (b) new ambiguous segments whose candidates match a remembered ambiguity's
     matched_new = np.zeros(len(new_ambiguous), dtype=bool)
     pairs = gated_pairs(new.stack.ends, new.stack.cov, mem.stack.ends, mem.stack.cov, gate)
@@ -177,7 +191,7 @@ def reweight(
     n_amb = len(remembered)
     if n_amb:
         counts = np.bincount(mem.owner, minlength=n_amb)
-        starts = np.r_[0, np.cumsum(counts)[:-1]]
+        starts = np.cumsum(counts) - counts
         changed = np.add.reduceat((ratio != 1.0).astype(np.int64), starts) > 0
         detected = np.add.reduceat(touched.astype(np.int64), starts) > 0
         w = mem.prob * ratio
@@ -193,7 +207,7 @@ def reweight(
             )
         )
         ratio_l, prob_l, post_l = ratio.tolist(), mem.prob.tolist(), post.tolist()
-        bounds = np.c_[starts, starts + counts].tolist()
+        bounds = list(zip(starts.tolist(), (starts + counts).tolist(), strict=True))
         for a, amb in enumerate(remembered):
             last = view if detected[a] else remembered_seen[a]
             lo, hi = bounds[a]
@@ -316,7 +330,7 @@ def explain_new(
     out: list[AmbiguousSegment] = []
     resolved: list[tuple[FloorSegment, float]] = []
     absorbed: list[tuple[int, int, bool]] = []
-    offsets = np.r_[0, np.cumsum([len(a.candidates) for a in new_ambiguous])].tolist()
+    offsets = [0, *itertools.accumulate(len(a.candidates) for a in new_ambiguous)]
     for b in update.new_unmatched.tolist():
         amb = _with_none_prior(new_ambiguous[b], opts.none_prior)
         lo, hi = offsets[b], offsets[b + 1]

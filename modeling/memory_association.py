@@ -9,12 +9,17 @@ the smaller distance counts; a pair is *gated* when it is at most the chi-square
 ``chi2.ppf(0.99, 4) = 13.28``). Gated pairs are assigned one-to-one by
 :func:`scipy.optimize.linear_sum_assignment` (most pairs first, then the smallest total
 distance). An associated pair fuses endpoint by endpoint as the product of Gaussians
-(:func:`gaussian_product`, information form).
+(:func:`gaussian_product`, information form; the new factor's information optionally weighted,
+for views that share errors with earlier ones).
 
 Only the endpoint gate is used: a segment seen from a new viewpoint as a longer or shorter piece
 of the same edge (clipped by the image border or by an occluder) fails the gate at the clipped
 end and enters the memory as a segment of its own; the old piece keeps its existence while its
 ends are out of view. The memory bounds the duplicates that this leaves.
+
+:func:`gated_pairs` and :func:`fused_segments` run compiled loops
+(:mod:`modeling._compiled.association`); :func:`gated_pairs_reference` and
+:func:`fused_segments_reference` are the readable NumPy versions they equal.
 
 Frames: world, metres; covariances m^2.
 """
@@ -27,6 +32,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from modeling._compiled.association import fuse_pairs, gate_pairs
 from modeling.observation import FloorSegment
 from modeling.validation import FloatArray
 
@@ -37,7 +43,9 @@ __all__ = [
     "concat",
     "endpoint_distances",
     "fused_segments",
+    "fused_segments_reference",
     "gated_pairs",
+    "gated_pairs_reference",
     "gaussian_product",
     "odds_update",
     "replaced",
@@ -113,7 +121,37 @@ def gated_pairs(
     mem_cov: FloatArray,
     gate_chi2: float,
 ) -> Association:
-    """Every (new, remembered) pair whose endpoint distance is within the gate.
+    """Every (new, remembered) pair whose endpoint distance is within the gate, ordered by row
+    then column: :func:`gated_pairs_reference` (its prefilter, its distances), compiled
+    (:func:`modeling._compiled.association.gate_pairs`; the same results).
+
+    Args:
+        new_ends: (n, 2, 2) new segments' endpoint means, metres; new_cov (n, 2, 2, 2), m^2.
+        mem_ends: (m, 2, 2) remembered segments' endpoint means; mem_cov (m, 2, 2, 2).
+        gate_chi2: The gate on the squared Mahalanobis distance (4 dof).
+    """
+    if new_ends.shape[0] == 0 or mem_ends.shape[0] == 0:
+        return _EMPTY
+    rows, cols, d2, swapped = gate_pairs(
+        np.ascontiguousarray(new_ends, dtype=np.float64),
+        np.ascontiguousarray(new_cov, dtype=np.float64),
+        np.ascontiguousarray(mem_ends, dtype=np.float64),
+        np.ascontiguousarray(mem_cov, dtype=np.float64),
+        float(gate_chi2),
+    )
+    return Association(rows=rows, cols=cols, d2=d2, swapped=swapped)
+
+
+def gated_pairs_reference(
+    new_ends: FloatArray,
+    new_cov: FloatArray,
+    mem_ends: FloatArray,
+    mem_cov: FloatArray,
+    gate_chi2: float,
+) -> Association:
+    """Every (new, remembered) pair whose endpoint distance is within the gate (the readable
+    version of :func:`gated_pairs`, which runs the compiled loop
+    :func:`modeling._compiled.association.gate_pairs`).
 
     A prefilter on the midpoints drops pairs that cannot pass: a gated pair has
     ``|d_e|^2 <= gate * lambda_max(A_e + B_e) <= gate * (tr A_e + tr B_e)`` at each endpoint, so
@@ -149,10 +187,10 @@ def assign(pairs: Association) -> Association:
     gated pair; deterministic). Ordered by row."""
     if pairs.rows.shape[0] == 0:
         return pairs
+    if np.bincount(pairs.rows).max() == 1 and np.bincount(pairs.cols).max() == 1:
+        return pairs  # already one-to-one
     urows, ri = np.unique(pairs.rows, return_inverse=True)
     ucols, ci = np.unique(pairs.cols, return_inverse=True)
-    if urows.shape[0] == pairs.rows.shape[0] and ucols.shape[0] == pairs.cols.shape[0]:
-        return pairs  # already one-to-one
     cost = np.full((urows.shape[0], ucols.shape[0]), _BIG)
     cost[ri, ci] = pairs.d2
     index = np.full(cost.shape, -1, dtype=np.int64)
@@ -169,14 +207,21 @@ def assign(pairs: Association) -> Association:
 
 
 def gaussian_product(
-    mean_a: FloatArray, cov_a: FloatArray, mean_b: FloatArray, cov_b: FloatArray
+    mean_a: FloatArray,
+    cov_a: FloatArray,
+    mean_b: FloatArray,
+    cov_b: FloatArray,
+    weight_b: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """The product of Gaussians ``N(mean_a, cov_a) N(mean_b, cov_b)``, normalised, in information
-    form: ``P = (A^-1 + B^-1)^-1``, ``m = P (A^-1 a + B^-1 b)``.
+    form: ``P = (A^-1 + B^-1)^-1``, ``m = P (A^-1 a + B^-1 b)``; with ``weight_b`` ``w``, the
+    second factor's information is ``w B^-1`` (the Gaussian raised to the power ``w``: a
+    measurement worth a fraction ``w`` of an independent one).
 
     Args:
         mean_a: (..., 2) means, metres; cov_a (..., 2, 2) covariances, m^2 (positive definite).
         mean_b: (..., 2) and cov_b (..., 2, 2): the other factor.
+        weight_b: (...) weights in (0, 1] of the second factor (default: 1).
 
     Returns:
         ``(mean, cov)`` of the same shapes (the covariance exactly symmetric: closed-form 2x2
@@ -184,6 +229,8 @@ def gaussian_product(
     """
     inv_a = _inverse(cov_a)
     inv_b = _inverse(cov_b)
+    if weight_b is not None:
+        inv_b = inv_b * np.asarray(weight_b)[..., None, None]
     cov = _inverse(inv_a + inv_b)
     info = np.einsum("...ij,...j->...i", inv_a, mean_a) + np.einsum(
         "...ij,...j->...i", inv_b, mean_b
@@ -222,16 +269,17 @@ _EXTRA_FIELDS = tuple(
 
 
 def trusted_segment(
-    ends: FloatArray, cov: FloatArray, heights: FloatArray, source: int
+    ends: FloatArray, cov: FloatArray, heights: FloatArray, source: int, *, copy: bool = True
 ) -> FloorSegment:
     """A :class:`~modeling.observation.FloorSegment` of values computed by the memory (finite;
     covariances positive definite by construction: products of positive-definite Gaussians),
     made without its validation, which costs 30 us a segment on the project machine (the largest
     cost of a fuse otherwise). The arrays are copied and made read-only, as the validated
-    constructor does."""
+    constructor does; with ``copy`` False they are taken as they are (float64 arrays of no one
+    else: the caller's fresh results) and only made read-only."""
     seg: FloorSegment = object.__new__(FloorSegment)
     for name, value in (("endpoints", ends), ("cov", cov), ("height_m", heights)):
-        arr = np.array(value, dtype=np.float64)
+        arr = np.array(value, dtype=np.float64) if copy else value
         arr.setflags(write=False)
         object.__setattr__(seg, name, arr)
     object.__setattr__(seg, "source", int(source))
@@ -256,13 +304,24 @@ class SegmentStack(NamedTuple):
     source: np.ndarray
 
 
+def _read_only(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    for arr in arrays:
+        arr.setflags(write=False)
+    return arrays
+
+
+_EMPTY_STACK = SegmentStack(
+    *_read_only(
+        np.zeros((0, 2, 2)), np.zeros((0, 2, 2, 2)), np.zeros((0, 2)), np.zeros(0, np.int64)
+    )
+)
+
+
 def stack_of(segs: tuple[FloorSegment, ...] | list[FloorSegment]) -> SegmentStack:
     """The arrays of ``segs`` (one concatenation per field)."""
     n = len(segs)
     if n == 0:
-        return SegmentStack(
-            np.zeros((0, 2, 2)), np.zeros((0, 2, 2, 2)), np.zeros((0, 2)), np.zeros(0, np.int64)
-        )
+        return _EMPTY_STACK
     return SegmentStack(
         np.concatenate([s.endpoints for s in segs]).reshape(n, 2, 2),
         np.concatenate([s.cov for s in segs]).reshape(n, 2, 2, 2),
@@ -272,21 +331,58 @@ def stack_of(segs: tuple[FloorSegment, ...] | list[FloorSegment]) -> SegmentStac
 
 
 def fused_segments(
-    mem: SegmentStack, new: SegmentStack, pairs: Association
+    mem: SegmentStack, new: SegmentStack, pairs: Association, weight: FloatArray | None = None
 ) -> tuple[list[FloorSegment], SegmentStack]:
     """The remembered segments ``pairs.cols`` fused with the new ones ``pairs.rows`` (aligned by
-    ``pairs.swapped``): the product of the endpoint Gaussians, the larger heights, the new
-    segment's source. One segment per pair, in the pairs' order, and their arrays."""
+    ``pairs.swapped``): the product of the endpoint Gaussians (the new one's information times
+    ``weight`` (k,), one per pair, when given), the larger heights, the new segment's source. One
+    segment per pair, in the pairs' order, and their arrays: :func:`fused_segments_reference`,
+    compiled (:func:`modeling._compiled.association.fuse_pairs`; the same results)."""
+    rows, cols = pairs.rows, pairs.cols
+    if rows.shape[0] == 0:
+        return [], stack_of([])
+    mean, P, top = fuse_pairs(
+        mem.ends,
+        mem.cov,
+        mem.heights,
+        new.ends,
+        new.cov,
+        new.heights,
+        rows,
+        cols,
+        pairs.swapped,
+        np.ones(rows.shape[0]) if weight is None else np.asarray(weight, dtype=np.float64),
+    )
+    src = new.source[rows]
+    # rows of fresh arrays: each segment's arrays are views (made read-only), not copies
+    segs = [
+        trusted_segment(mean[k], P[k], top[k], s, copy=False) for k, s in enumerate(src.tolist())
+    ]
+    return segs, SegmentStack(mean, P, top, src)
+
+
+def fused_segments_reference(
+    mem: SegmentStack, new: SegmentStack, pairs: Association, weight: FloatArray | None = None
+) -> tuple[list[FloorSegment], SegmentStack]:
+    """The remembered segments ``pairs.cols`` fused with the new ones ``pairs.rows`` (aligned by
+    ``pairs.swapped``): the product of the endpoint Gaussians (the new one's information times
+    ``weight`` (k,), one per pair, when given), the larger heights, the new segment's source. One
+    segment per pair, in the pairs' order, and their arrays (the readable version of
+    :func:`fused_segments`)."""
     rows, cols, swapped = pairs.rows, pairs.cols, pairs.swapped
     if rows.shape[0] == 0:
         return [], stack_of([])
     ends = np.where(swapped[:, None, None], new.ends[rows][:, ::-1], new.ends[rows])
     cov = np.where(swapped[:, None, None, None], new.cov[rows][:, ::-1], new.cov[rows])
     heights = np.where(swapped[:, None], new.heights[rows][:, ::-1], new.heights[rows])
-    mean, P = gaussian_product(mem.ends[cols], mem.cov[cols], ends, cov)
+    w = None if weight is None else np.repeat(np.asarray(weight)[:, None], 2, axis=1)
+    mean, P = gaussian_product(mem.ends[cols], mem.cov[cols], ends, cov, w)
     top = np.maximum(mem.heights[cols], heights)
     src = new.source[rows]
-    segs = [trusted_segment(mean[k], P[k], top[k], s) for k, s in enumerate(src.tolist())]
+    # rows of fresh arrays: each segment's arrays are views (made read-only), not copies
+    segs = [
+        trusted_segment(mean[k], P[k], top[k], s, copy=False) for k, s in enumerate(src.tolist())
+    ]
     return segs, SegmentStack(mean, P, top, src)
 
 

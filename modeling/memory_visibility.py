@@ -14,6 +14,7 @@ Frames: world, metres; angles radians.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any, NamedTuple
 
@@ -76,7 +77,8 @@ class Visibility(NamedTuple):
         n = self.reach.shape[0]
         stride = max(1, int(math.radians(3.0) / (2.0 * self.half_fov / (n - 1))))
         far_ray = self.reach >= self.reach.max() - 1e-12
-        inner = np.r_[False, far_ray[:-2] & far_ray[1:-1] & far_ray[2:], False]
+        inner = np.zeros(n, dtype=bool)
+        inner[1:-1] = far_ray[:-2] & far_ray[1:-1] & far_ray[2:]
         keep = ~inner | (np.arange(n) % stride == 0)
         ang = self.heading + self.angles[keep]
         u = np.stack([np.cos(ang), np.sin(ang)], axis=1)
@@ -89,6 +91,15 @@ class Visibility(NamedTuple):
         else:  # a star polygon around the viewpoint: simple
             ring = np.vstack([self.origin[None, :], self.origin + reach_kept[:, None] * u])
         return shapely.polygons(ring)
+
+
+@functools.lru_cache(maxsize=16)
+def _ray_angles(half: float, n_rays: int) -> FloatArray:
+    """(n_rays,) ray angles relative to the heading, ascending, read-only (cached: a camera's
+    field of view does not change between views)."""
+    out = np.linspace(-half, half, n_rays)
+    out.setflags(write=False)
+    return out
 
 
 def visibility(
@@ -108,7 +119,7 @@ def visibility(
         origin=sweep.origin,
         heading=float(observation.viewpoint[2]),
         half_fov=half,
-        angles=np.linspace(-half, half, n_rays),
+        angles=_ray_angles(half, n_rays),
         reach=np.minimum(sweep.hit, sweep.max_range),
         near_m=near_m,
     )

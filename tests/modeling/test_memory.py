@@ -22,6 +22,8 @@ from modeling import (
     build_memory_model,
     fuse,
 )
+from modeling.memory_ambiguity import candidates_of
+from modeling.memory_association import stack_of
 
 PD, PF = 0.8, 0.05  # the default detection probability and false-match rate
 HIT, MISS = PD / PF, (1 - PD) / (1 - PF)  # the likelihood ratios of a detection and of a miss
@@ -49,9 +51,10 @@ def test_two_views_of_one_segment_fuse_to_the_product_of_gaussians() -> None:
     cov1 = np.array([[[0.04, 0.01], [0.01, 0.02]], [[0.03, -0.005], [-0.005, 0.01]]])
     cov2 = np.array([[[0.01, 0.0], [0.0, 0.05]], [[0.02, 0.004], [0.004, 0.03]]])
     first = seg((3.0, -0.5), (3.2, 0.5), cov1)
-    # the second view sees the same edge with its endpoints in the other order
+    # the second view, from a viewpoint 0.6 m away (beyond independent_baseline_m), sees the
+    # same edge with its endpoints in the other order
     second = FloorSegment(endpoints=np.array([[3.25, 0.45], [2.9, -0.55]]), cov=cov2[::-1])
-    memory = fuse(fuse(ModelMemory.empty(), view((first,))), view((second,)))
+    memory = fuse(fuse(ModelMemory.empty(), view((first,))), view((second,), at=(0.0, 0.6, -0.1)))
     assert len(memory.segments) == 1
     got = memory.segments[0]
     for e, (m1, m2) in enumerate(zip(first.endpoints, second.endpoints[::-1], strict=True)):
@@ -61,6 +64,51 @@ def test_two_views_of_one_segment_fuse_to_the_product_of_gaussians() -> None:
         np.testing.assert_allclose(got.endpoints[e], P @ (i1 @ m1 + i2 @ m2), rtol=0, atol=1e-12)
     assert memory.existence == pytest.approx((posterior(0.5, HIT),), abs=1e-12)
     assert memory.views == 2 and memory.last_seen == (2,)
+    np.testing.assert_array_equal(memory.fused_from, [[0.0, 0.6]])
+
+
+@pytest.mark.parametrize(
+    ("second_at", "weight"),
+    [
+        ((0.0, 0.0, 0.0), 0.5),  # the same viewpoint: repeat_information
+        ((0.2, 0.0, 0.1), 0.5 + 0.5 * 0.2 / 0.5),  # 0.2 m on: part of an independent view
+        ((0.0, 0.5, 0.0), 1.0),  # independent_baseline_m away: an independent view
+    ],
+)
+def test_a_view_from_near_the_last_viewpoint_adds_a_share_of_its_information(
+    second_at: tuple[float, float, float], weight: float
+) -> None:
+    cov1 = np.array([[[0.04, 0.01], [0.01, 0.02]], [[0.03, -0.005], [-0.005, 0.01]]])
+    cov2 = np.array([[[0.01, 0.0], [0.0, 0.05]], [[0.02, 0.004], [0.004, 0.03]]])
+    first, second = seg((3.0, -0.5), (3.2, 0.5), cov1), seg((3.1, -0.45), (3.25, 0.45), cov2)
+    memory = fuse(fuse(ModelMemory.empty(), view((first,))), view((second,), at=second_at))
+    got = memory.segments[0]
+    for e in range(2):
+        i1, i2 = np.linalg.inv(cov1[e]), weight * np.linalg.inv(cov2[e])
+        P = np.linalg.inv(i1 + i2)
+        np.testing.assert_allclose(got.cov[e], P, rtol=0, atol=1e-12)
+        mean = P @ (i1 @ first.endpoints[e] + i2 @ second.endpoints[e])
+        np.testing.assert_allclose(got.endpoints[e], mean, rtol=0, atol=1e-12)
+    # existence is updated as before: only the endpoints' information is shared
+    assert memory.existence == pytest.approx((posterior(0.5, HIT),), abs=1e-12)
+    # with independent_baseline_m 0, every view counts in full (the plain product)
+    plain = fuse(
+        fuse(ModelMemory.empty(), view((first,))),
+        view((second,), at=second_at),
+        independent_baseline_m=0.0,
+    )
+    P0 = np.linalg.inv(np.linalg.inv(cov1[0]) + np.linalg.inv(cov2[0]))
+    np.testing.assert_allclose(plain.segments[0].cov[0], P0, rtol=0, atol=1e-12)
+
+
+def test_standing_still_the_covariance_shrinks_like_half_views() -> None:
+    wall = seg((4.0, -0.5), (4.0, 0.5))
+    memory = ModelMemory.empty()
+    for _ in range(5):
+        memory = fuse(memory, view((wall,)))
+    # the first view in full, four more at repeat_information 0.5: three views' information
+    P = np.linalg.inv(3 * np.linalg.inv(wall.cov[0]))
+    np.testing.assert_allclose(memory.segments[0].cov[0], P, rtol=0, atol=1e-15)
 
 
 def test_an_ambiguity_seen_from_a_separating_viewpoint_resolves_to_the_true_candidate() -> None:
@@ -192,6 +240,35 @@ def test_memory_size_stays_bounded_over_500_steps() -> None:
     assert len(memory.segments) == 120 and memory.views == 500
 
 
+def test_the_arrays_fuse_carries_equal_those_of_its_segments_and_candidates() -> None:
+    # fuse reuses the rows of unchanged candidates and segments; they must equal a fresh stack
+    rng = np.random.default_rng(5)
+    memory = ModelMemory.empty()
+    for k in range(40):
+        x = 0.1 * k
+        segs = tuple(seg(p, p + rng.normal(size=2) * 0.2) for p in rng.uniform(2, 6, (8, 2)))
+        ambs = tuple(
+            AmbiguousSegment(
+                candidates=(seg(p, p + np.array([0.1, 0.3])), seg(p + 1.0, p + 1.2)),
+                probabilities=(0.6, 0.4),
+            )
+            for p in rng.uniform([x + 2, -2], [x + 5, 2], size=(3, 2))
+        )
+        memory = fuse(memory, view(segs, ambs, at=(x, 0.0, 0.1 * math.sin(k))))
+        cands, fresh = memory.candidate_arrays, candidates_of(memory.ambiguous)
+        assert cands is not None and memory.segment_arrays is not None
+        for got, want in zip(
+            (*cands.stack, cands.owner, cands.prob),
+            (*fresh.stack, fresh.owner, fresh.prob),
+            strict=True,
+        ):
+            np.testing.assert_array_equal(got, want)
+        assert all(a is b for a, b in zip(cands.segments, fresh.segments, strict=True))
+        for got, want in zip(memory.segment_arrays, stack_of(memory.segments), strict=True):
+            np.testing.assert_array_equal(got, want)
+    assert len(memory.ambiguous) > 5  # some candidates stayed unchanged for several views
+
+
 def test_the_bound_drops_the_lowest_existence_then_the_oldest() -> None:
     a, b, c = (
         seg((3.0, -1.5), (3.0, -1.2)),
@@ -246,6 +323,9 @@ def test_fuse_is_deterministic_and_does_not_mutate_its_inputs() -> None:
         ("contact_length_m", math.nan),
         ("half_vfov_rad", 2.0),
         ("head_height_m", -0.8),
+        ("independent_baseline_m", -0.5),
+        ("repeat_information", 0.0),
+        ("repeat_information", 1.5),
     ],
 )
 def test_bad_options_raise_naming_the_field(field: str, value: float) -> None:
@@ -270,6 +350,13 @@ def test_bad_arguments_raise_naming_them() -> None:
         ModelMemory(segments=(seg((0, 0), (1, 0)),), existence=(), last_seen=(1,))
     with pytest.raises(ValueError, match="segments"):
         ModelMemory(segments=("wall",), existence=(0.5,), last_seen=(1,))  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="fused_from"):
+        ModelMemory(
+            segments=(seg((0, 0), (1, 0)),),
+            existence=(0.5,),
+            last_seen=(1,),
+            fused_from=np.zeros(2),
+        )
     with pytest.raises(ValueError, match="bounds"):
         ModelMemory.empty().unknown([0, 1])
 
@@ -346,7 +433,8 @@ def test_a_critical_regions_width_std_narrows_as_views_accumulate() -> None:
 
 def test_a_new_ambiguity_coinciding_with_a_remembered_segment_is_reweighted_or_absorbed() -> None:
     wall = seg((4.0, -0.5), (4.0, 0.5))
-    memory = fuse(fuse(ModelMemory.empty(), view((wall,))), view((wall,)))
+    # seen twice, from viewpoints 0.5 m apart (independent views)
+    memory = fuse(fuse(ModelMemory.empty(), view((wall,))), view((wall,), at=(0.5, 0.0, 0.0)))
     e = posterior(0.5, HIT)
     assert memory.existence == pytest.approx((e,), abs=1e-12)
     ghost = seg((2.5, -0.3), (2.5, 0.3))  # the wrong disparity, nearer
@@ -360,7 +448,8 @@ def test_a_new_ambiguity_coinciding_with_a_remembered_segment_is_reweighted_or_a
         assert len(later.segments) == 1
         if absorbed:
             assert later.ambiguous == ()
-            P = np.linalg.inv(3 * np.linalg.inv(wall.cov[0]))  # the wall's Gaussian, three times
+            # the wall's Gaussian twice, then once more from 0.5 m on (an independent view)
+            P = np.linalg.inv(3 * np.linalg.inv(wall.cov[0]))
             np.testing.assert_allclose(later.segments[0].cov[0], P, atol=1e-12)
         else:
             (open_,) = later.ambiguous
@@ -369,6 +458,28 @@ def test_a_new_ambiguity_coinciding_with_a_remembered_segment_is_reweighted_or_a
                 (w_wall / total, w_ghost / total), abs=1e-12
             )
             assert open_.p_none == pytest.approx(NONE / total, abs=1e-12)
+
+
+def test_a_remembered_segment_seen_again_is_evidence_for_a_candidate_on_it() -> None:
+    wall = seg((4.0, -0.5), (4.0, 0.5))
+    ghost = seg((2.5, -0.3), (2.5, 0.3))
+    memory = fuse(fuse(ModelMemory.empty(), view((wall,))), view((wall,), at=(0.5, 0.0, 0.0)))
+    amb = AmbiguousSegment(candidates=(wall, ghost), probabilities=(0.5, 0.5))
+    memory = fuse(memory, view(ambiguous=(amb,)))  # open: the wall's candidate at 0.94
+    (open_,) = memory.ambiguous
+    (p_wall, p_ghost), none = open_.probabilities, open_.p_none
+    # the wall seen again, unambiguously: a detection of the wall's candidate too (pd / pf);
+    # the ghost's place in view in front of it, nothing there (a miss)
+    keep_open = {"resolve_probability": 0.9999, "min_candidate_probability": 0.0}
+    again = fuse(memory, view((wall,), at=(0.5, 0.0, 0.0)), **keep_open)
+    w = np.array([p_wall * HIT, p_ghost * MISS])
+    (got,) = again.ambiguous
+    assert got.probabilities == pytest.approx(tuple(w / (w.sum() + none)), abs=1e-12)
+    assert again.ambiguous_seen == (4,)
+    # with the default resolve probability it resolves into the wall
+    resolved = fuse(memory, view((wall,), at=(0.5, 0.0, 0.0)))
+    assert resolved.ambiguous == () and len(resolved.segments) == 1
+    assert resolved.existence[0] >= w[0] / (w.sum() + none)
 
 
 def test_a_resolved_candidate_coinciding_with_a_remembered_segment_fuses_into_it() -> None:
