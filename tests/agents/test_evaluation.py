@@ -17,6 +17,7 @@ from agents.evaluation import (
     suite_episodes,
     summarize,
 )
+from tests.agents.episodes import episode
 
 
 def test_suite_cycles_families_with_fixed_seeds() -> None:
@@ -50,22 +51,10 @@ def test_oracle_episode_succeeds_with_spl_near_one() -> None:
 
 
 def _result(agent: str, index: int, success: bool, collisions: int, spl: float) -> EpisodeResult:
-    return EpisodeResult(
-        agent=agent,
-        index=index,
-        family="room",
-        scene=f"room-{index}",
-        seed=index,
-        success=success,
-        collided=collisions > 0,
-        collision_steps=collisions,
-        steps=100 + 10 * index,
-        looks=index,
-        path_length_m=5.0,
-        reference_m=4.0,
-        spl=spl,
-        time_s=2.0,
-    )
+    return episode(
+        index, success=success, spl=spl, collisions=collisions, agent=agent,
+        steps=100 + 10 * index, looks=index, time_s=2.0,
+    )  # fmt: skip
 
 
 def test_summary_table_and_plot(tmp_path) -> None:

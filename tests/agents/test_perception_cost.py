@@ -8,25 +8,11 @@ import pytest
 
 from agents.evaluation import EpisodeResult, summarize
 from agents.perception_cost import perception_cost, perception_markdown
+from tests.agents.episodes import episode
 
 
 def _episode(seed: int, *, success: bool, spl: float, collisions: int = 0) -> EpisodeResult:
-    return EpisodeResult(
-        agent="greedy",
-        index=seed,
-        family="room",
-        scene=f"room-{seed}",
-        seed=seed,
-        success=success,
-        collided=collisions > 0,
-        collision_steps=collisions,
-        steps=100,
-        looks=0,
-        path_length_m=5.0,
-        reference_m=4.0,
-        spl=spl,
-        time_s=1.0,
-    )
+    return episode(seed, success=success, spl=spl, collisions=collisions)
 
 
 def test_the_cost_is_the_mean_paired_difference_matched_by_seed() -> None:

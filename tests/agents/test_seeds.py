@@ -10,25 +10,14 @@ import pytest
 
 from agents.evaluation import EpisodeResult
 from agents.seeds import _rolling_success, plot_seed_curves, seed_summary, seed_table
+from tests.agents.episodes import episode
 
 
 def _episode(index: int, success: bool, spl: float = 0.0, collided: bool = False) -> EpisodeResult:
-    return EpisodeResult(
-        agent="ppo",
-        index=index,
-        family="open",
-        scene=f"open-{index}",
-        seed=index,
-        success=success,
-        collided=collided,
-        collision_steps=int(collided),
-        steps=10,
-        looks=0,
-        path_length_m=1.0,
-        reference_m=1.0,
-        spl=spl,
-        time_s=0.1,
-    )
+    return episode(
+        index, success=success, spl=spl, collisions=int(collided), agent="ppo", family="open",
+        steps=10, path_length_m=1.0, reference_m=1.0, time_s=0.1,
+    )  # fmt: skip
 
 
 def test_seed_summary_means_the_seeds_and_pools_the_interval() -> None:
