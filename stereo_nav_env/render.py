@@ -8,10 +8,11 @@ fewer than 4 cores the rasteriser gets 4 threads (``LP_NUM_THREADS``, unless set
 Geometry: every static piece of the scene (floor, walls, every part of every obstacle) is merged
 into ONE triangle mesh with per-face colours, so a frame is one draw call whatever the number of
 pieces. Shading is baked: each face gets its part's base colour times a factor fixed by the face's
-orientation (tops brightest, the four side directions of world +x, +y, -x, -y at distinct levels),
-and the mesh is drawn with ``RenderFlags.FLAT`` (no lighting computation), so adjacent faces of a
-box differ and its edges appear as straight intensity steps. A directional light is kept in the
-scene for non-flat use.
+orientation (tops brightest, the four side directions of world +x, +y, -x, -y at distinct levels;
+the values are in :mod:`stereo_nav_env.shading`, which the surrogate reads too), and the mesh is
+drawn with ``RenderFlags.FLAT`` (no lighting computation), so adjacent faces of a box differ and
+its edges appear as straight intensity steps. A directional light is kept in the scene for
+non-flat use.
 
 Cameras: the SAME :class:`modeling.StereoRig` drives the renderer. pyrender's ``IntrinsicsCamera``
 measures pixels from the top-left pixel's corner while the rig uses the centre of the top-left pixel
@@ -25,7 +26,6 @@ sub-pixel precision from the intensity profile.
 from __future__ import annotations
 
 import ctypes.util
-import math
 import os
 from typing import Any
 
@@ -48,10 +48,20 @@ from numpy.typing import NDArray
 
 from modeling.rig import HeadPose, StereoRig
 from stereo_nav_env.scenes import BoxPart, Scene
+from stereo_nav_env.shading import (
+    BACKGROUND_COLOR,
+    BOTTOM_SHADE,
+    FLOOR_COLOR,
+    FLOOR_MARGIN_M,
+    SIDE_SHADES,
+    TOP_SHADE,
+    face_shade,
+)
 
 __all__ = [
     "BACKGROUND_COLOR",
     "FLOOR_COLOR",
+    "SIDE_SHADES",
     "StereoRenderer",
     "build_scene_mesh",
     "face_shade",
@@ -60,23 +70,7 @@ __all__ = [
 UInt8Image = NDArray[np.uint8]
 FloatArray = NDArray[np.float64]
 
-FLOOR_COLOR = (0.40, 0.40, 0.42)
-BACKGROUND_COLOR = (0.62, 0.70, 0.80)
-TOP_SHADE = 1.0
-BOTTOM_SHADE = 0.45
-SIDE_SHADES = (0.92, 0.74, 0.58, 0.84)  # outward normal nearest world +x, +y, -x, -y
 _OPENCV_TO_OPENGL = np.diag([1.0, -1.0, -1.0, 1.0])
-
-
-def face_shade(normal_xy: NDArray[np.float64]) -> float:
-    """Shade factor of a vertical face from its outward normal (2,) in the world floor plane.
-
-    The four quadrants around world +x, +y, -x, -y get distinct factors, so two faces at right
-    angles (adjacent sides of a box) never share a shade.
-    """
-    phi = math.atan2(float(normal_xy[1]), float(normal_xy[0]))
-    quadrant = math.floor((phi + math.pi / 4) / (math.pi / 2)) % 4
-    return SIDE_SHADES[quadrant]
 
 
 def _prism(part: BoxPart) -> tuple[FloatArray, NDArray[np.int64], FloatArray]:
@@ -104,7 +98,7 @@ def _prism(part: BoxPart) -> tuple[FloatArray, NDArray[np.int64], FloatArray]:
     return verts, np.asarray(faces, dtype=np.int64), np.asarray(colors)
 
 
-def build_scene_mesh(scene: Scene, *, floor_margin_m: float = 0.5) -> trimesh.Trimesh:
+def build_scene_mesh(scene: Scene, *, floor_margin_m: float = FLOOR_MARGIN_M) -> trimesh.Trimesh:
     """All static geometry of ``scene`` (floor and every obstacle part) as ONE coloured mesh.
 
     Args:

@@ -7,27 +7,36 @@ stages after the segment extraction, then :func:`modeling.model.build_model`):
 
 1. The edges the pipeline could see (:mod:`.surrogate_visibility`): the vertical edges of the
    rendered parts in the field of view and range, facing the head, not occluded (the sweep over
-   the parts' footprints with their heights), each with its seen run of rows; and the image lines
-   of the floor sides of the parts, for the faces.
-2. Missed edges: each is dropped with the miss rate of its depth bin and its kind (a wall's or
-   a box's corner, or furniture's), measured on the stereo pipeline (:class:`SurrogateRates`,
-   ``data/surrogate_rates.json``, written by ``scripts/measure_surrogate.py``). A few found
-   edges get a stray second candidate (the stereo's ambiguity beyond the repeated edges).
-3. Idealised image segments of both images (:class:`~modeling.segments.ImageSegments`), one per
-   seen edge, with the least-squares error model of :mod:`modeling.segments`: a fit of ``n`` rows
-   with per-point variance ``sigma_px^2`` and the common bias ``bias_sigma_px^2``
-   (``SegmentOptions``). The segments' columns are drawn from that model (the fitted line's
-   offset ``N(0, s^2 / n)``, slope ``N(0, s^2 / S_vv)``, bias ``N(0, bias^2)``), scaled by the
-   measured ``error_scale`` (the stereo's actual error over its stated one). A false match moves
-   the right segment by a disparity error drawn from the measured ones (its rate by depth bin).
-   Each segment carries grey levels of its look-alike group only: the edges of one group
-   (the same corner of a shelf's sides and dividers, of a table's legs) can match each other, no
-   others can.
-4. :func:`modeling.matching.match_segments` on those segments: the matcher's own candidates
-   (epipolar overlap, disparity range) and its local disparity histograms decide. A repeated edge
-   (a bookshelf front) gets its candidates at the other repeated edges' disparities, with the
-   probabilities of the histogram's peaks (Eq. 1); an edge alone is certain.
-5. :func:`modeling.triangulation.triangulate_to_floor` (the covariances: the depth standard
+   the parts' footprints with their heights), each with its seen run of rows and whether it is
+   an outline (one of the two sides meeting there faces the head) or a crease (both do); and the
+   image lines of the floor sides of the parts, for the faces.
+2. Which images segment each edge: both, the left only, the right only or neither, drawn with
+   the probabilities of its class (:data:`EDGE_CLASSES`: its obstacle's kind, outline or
+   crease) and depth bin, measured on the stereo pipeline (:class:`SurrogateRates`,
+   ``data/surrogate_rates.json``, written by ``scripts/measure_surrogate.py``). A crease of a
+   leg, a few pixels from its outlines between faces of one dark colour, is seldom imaged; a
+   chair's thin legs less often than a table's.
+3. The photometry (:mod:`.surrogate_photometry`): the grey levels the renderer draws beside
+   each edge in each image (the near and far samples the matcher compares), row by row, and
+   the pieces the extraction cuts an edge into: the runs of one polarity with contrast, each
+   stopping the measured ``end_loss_px`` short of its ends (the stereo's line support does).
+4. Idealised image segments of both images (:class:`~modeling.segments.ImageSegments`), one per
+   piece of an edge the image segments, with the least-squares error model of
+   :mod:`modeling.segments`: a fit of ``n`` rows with per-point variance ``sigma_px^2`` and the
+   common bias ``bias_sigma_px^2`` (``SegmentOptions``). The segments' columns are drawn from
+   that model (the fitted line's offset ``N(0, s^2 / n)``, slope ``N(0, s^2 / S_vv)``, bias
+   ``N(0, bias^2)``), scaled by the measured ``error_scale`` (the stereo's actual error over its
+   stated one). A false match beyond the matcher's own moves the right segment by a disparity
+   error drawn from the measured ones (its rate by depth bin). Each segment carries the grey
+   levels of step 3, so which edges the matcher can take for one another is what the stereo's
+   photometric test decides: identical legs in front of the same background, two wall corners
+   between the same faces.
+5. :func:`modeling.matching.match_segments` on those segments: the matcher's own candidates
+   (epipolar overlap, direction, photometry, disparity range) and its local disparity
+   histograms decide. A repeated edge (a bookshelf front) gets its candidates at the other
+   repeated edges' disparities, with the probabilities of the histogram's peaks (Eq. 1); an edge
+   alone is certain; an edge the right image does not segment may take a look-alike's partner.
+6. :func:`modeling.triangulation.triangulate_to_floor` (the covariances: the depth standard
    deviation grows as ``Z^2 / (f b) sigma_d``; the height band), :func:`modeling.faces.close_faces`
    (with the floor lines of step 1 as the image's near-horizontal lines), and
    :func:`modeling.model.build_model`.
@@ -41,7 +50,7 @@ import functools
 import importlib.resources
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -55,12 +64,21 @@ from modeling.rig import HeadPose, StereoRig
 from modeling.segments import ImageSegments, SegmentOptions
 from modeling.triangulation import triangulate_to_floor
 from stereo_nav_env.perception import ComparableModel, Stopwatch
-from stereo_nav_env.surrogate_visibility import SceneEdges, visible_edges, visible_floor_lines
+from stereo_nav_env.scenes import ObstacleKind
+from stereo_nav_env.surrogate_photometry import image_pieces
+from stereo_nav_env.surrogate_visibility import (
+    SceneEdges,
+    VisibleEdges,
+    visible_edges,
+    visible_floor_lines,
+)
 
 __all__ = [
+    "EDGE_CLASSES",
     "RATES_FILE",
     "SurrogateRates",
     "default_rates",
+    "edge_classes",
     "perceive_surrogate",
     "surrogate_segments",
 ]
@@ -70,8 +88,14 @@ IntArray = NDArray[np.int64]
 
 RATES_FILE = "surrogate_rates.json"
 """The measured rates, in ``stereo_nav_env/data`` (written by ``scripts/measure_surrogate.py``)."""
-_GROUP_GREY = 50.0
-"""Grey-level step between look-alike groups: above the matcher's photometric tolerances."""
+
+
+EDGE_CLASSES = tuple(f"{kind.value}{crease}" for kind in ObstacleKind for crease in ("", "_crease"))
+"""The classes of edge the detection rates are kept for: an obstacle kind's outlines (one of the
+two sides meeting there faces the head: the edge stands against what lies behind it) and its
+creases (``_crease``: both sides face the head; the edge is only the shading step between two
+faces). The kind stands for its parts' size and colour: a chair's thin dark legs are found far
+less often than a table's."""
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -80,65 +104,96 @@ class SurrogateRates:
 
     Attributes:
         depth_bins_m: (k + 1,) edges of the depth bins, metres, increasing.
-        miss_rate_plain: (k,) probability that a seen corner of a wall or a box is not found
-            (imaged by no matched segment), per depth bin.
-        miss_rate_furniture: (k,) the same for the edges of furniture (legs, shelf sides and
-            dividers: thin, close together, often merged or missed).
-        false_match_rate: (k,) probability that a found edge is matched at a wrong disparity
-            (more than 1 px off), per depth bin.
+        detection: For each of :data:`EDGE_CLASSES`, (k, 3): per depth bin, the probabilities
+            that the segment extraction images a seen edge of that class (one with contrast in
+            both images) in both images, in the left one only and in the right one only (the
+            rest: in neither).
+        false_match_rate: (k,) probability that an edge imaged in both images is matched at a
+            wrong disparity (more than 1 px off) beyond the matcher's own false matches, per
+            depth bin.
         false_error_px: The absolute disparity errors of the measured false matches, px (> 1);
             a false match draws one of them, with a random sign.
-        stray_rate: (k,) probability that a found edge also gets a stray candidate (the
-            stereo's ambiguity beyond the repeated edges the surrogate knows), per depth bin.
-        stray_offset_px: The disparity offsets of the stray candidates, px; one is drawn, with a
-            random sign.
         error_scale: The stereo's actual column errors over the error model's standard
             deviation (1: the model is exact), > 0.
+        end_loss_px: Rows by which the stereo's segments stop short of each end of the seen
+            run of their edge (the median), px, >= 0.
     """
 
     depth_bins_m: tuple[float, ...]
-    miss_rate_plain: tuple[float, ...]
-    miss_rate_furniture: tuple[float, ...]
+    detection: dict[str, tuple[tuple[float, float, float], ...]]
     false_match_rate: tuple[float, ...]
     false_error_px: tuple[float, ...]
-    stray_rate: tuple[float, ...]
-    stray_offset_px: tuple[float, ...]
     error_scale: float
+    end_loss_px: float
+    _detection_table: FloatArray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         bins = np.asarray(self.depth_bins_m, dtype=np.float64)
         k = bins.size - 1
         if k < 1 or not np.all(np.diff(bins) > 0) or not np.all(np.isfinite(bins)):
             raise ValueError(f"depth_bins_m must increase, got {self.depth_bins_m!r}")
-        for name in ("miss_rate_plain", "miss_rate_furniture", "false_match_rate", "stray_rate"):
-            arr = np.asarray(getattr(self, name), dtype=np.float64)
-            if arr.shape != (k,) or not np.all((arr >= 0) & (arr <= 1)):
-                raise ValueError(f"{name} must be {k} probabilities, got {getattr(self, name)!r}")
-            object.__setattr__(self, name, tuple(arr.tolist()))
-        for name in ("false_error_px", "stray_offset_px"):
-            errors = np.asarray(getattr(self, name), dtype=np.float64)
+        if not isinstance(self.detection, dict) or set(self.detection) != set(EDGE_CLASSES):
+            raise ValueError(f"detection must map each of {EDGE_CLASSES} to its rates")
+        detection = {}
+        for name in EDGE_CLASSES:
+            arr = np.asarray(self.detection[name], dtype=np.float64)
             if (
-                errors.ndim != 1
-                or errors.size == 0
-                or not np.all(np.isfinite(errors) & (errors > 0))
+                arr.shape != (k, 3)
+                or not np.all((arr >= 0) & (arr <= 1))
+                or not np.all(arr.sum(axis=1) <= 1 + 1e-9)
             ):
-                raise ValueError(f"{name} must be positive numbers, got {getattr(self, name)!r}")
-            object.__setattr__(self, name, tuple(errors.tolist()))
+                raise ValueError(
+                    f"detection[{name!r}] must be {k} rows of 3 probabilities summing to at "
+                    f"most 1, got {self.detection[name]!r}"
+                )
+            detection[name] = tuple((a, b, c) for a, b, c in arr.tolist())
+        object.__setattr__(self, "detection", detection)
+        table = np.array([detection[name] for name in EDGE_CLASSES])  # (classes, k, 3)
+        table.setflags(write=False)
+        object.__setattr__(self, "_detection_table", table)
+        arr = np.asarray(self.false_match_rate, dtype=np.float64)
+        if arr.shape != (k,) or not np.all((arr >= 0) & (arr <= 1)):
+            raise ValueError(f"false_match_rate must be {k} probabilities, got {arr.tolist()!r}")
+        object.__setattr__(self, "false_match_rate", tuple(arr.tolist()))
+        errors = np.asarray(self.false_error_px, dtype=np.float64)
+        if errors.ndim != 1 or errors.size == 0 or not np.all(np.isfinite(errors) & (errors > 0)):
+            raise ValueError(f"false_error_px must be positive numbers, got {errors.tolist()!r}")
+        object.__setattr__(self, "false_error_px", tuple(errors.tolist()))
         if not (math.isfinite(self.error_scale) and self.error_scale > 0):
             raise ValueError(f"error_scale must be positive, got {self.error_scale!r}")
         object.__setattr__(self, "depth_bins_m", tuple(bins.tolist()))
         object.__setattr__(self, "error_scale", float(self.error_scale))
+        if not (math.isfinite(self.end_loss_px) and self.end_loss_px >= 0):
+            raise ValueError(f"end_loss_px must be >= 0, got {self.end_loss_px!r}")
+        object.__setattr__(self, "end_loss_px", float(self.end_loss_px))
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> SurrogateRates:
         """The rates of a dict with (at least) the attribute names as keys."""
-        return cls(**{name: data[name] for name in cls.__dataclass_fields__})
+        return cls(**{name: data[name] for name in cls.__dataclass_fields__ if name[0] != "_"})
 
-    def at_depth(self, rates: tuple[float, ...], depth_m: FloatArray) -> FloatArray:
-        """``rates`` (one per bin) at depths ``depth_m`` (n,) metres (clipped to the bins)."""
+    def at_depth(self, rates: tuple[Any, ...], depth_m: FloatArray) -> FloatArray:
+        """``rates`` (one per bin: numbers, or rows) at depths ``depth_m`` (n,) metres (clipped
+        to the bins): (n,) or (n, ...)."""
         k = np.searchsorted(np.asarray(self.depth_bins_m), depth_m, side="right") - 1
-        out: FloatArray = np.asarray(rates)[np.clip(k, 0, len(rates) - 1)]
+        out: FloatArray = np.asarray(rates, dtype=np.float64)[np.clip(k, 0, len(rates) - 1)]
         return out
+
+    def detection_at(self, edge_class: IntArray, depth_m: FloatArray) -> FloatArray:
+        """(n, 3) detection probabilities (both images, left only, right only) of ``n`` edges
+        of classes ``edge_class`` (indices into :data:`EDGE_CLASSES`) at depths ``depth_m``
+        (clipped to the bins)."""
+        k = np.searchsorted(np.asarray(self.depth_bins_m), depth_m, side="right") - 1
+        out: FloatArray = self._detection_table[
+            edge_class, np.clip(k, 0, len(self.depth_bins_m) - 2)
+        ]
+        return out
+
+
+def edge_classes(edges: SceneEdges, vis: VisibleEdges) -> IntArray:
+    """(n,) the class of each seen edge, an index into :data:`EDGE_CLASSES`."""
+    out: IntArray = 2 * edges.corner_kind[vis.corner] + vis.crease.astype(np.int64)
+    return out
 
 
 @functools.cache
@@ -156,79 +211,76 @@ def surrogate_segments(
     rates: SurrogateRates,
     options: SegmentOptions | None = None,
 ) -> tuple[ImageSegments, ImageSegments]:
-    """The idealised left and right image segments of what ``head`` sees (steps 1-3 of the
+    """The idealised left and right image segments of what ``head`` sees (steps 1-4 of the
     module docstring), drawing from ``rng``; the left ones carry the floor lines as their
     near-horizontal lines."""
     opts = SegmentOptions() if options is None else options
     vis = visible_edges(edges, head, rig, trim_px=opts.trim_px, min_length_px=opts.min_length_px)
-    miss = np.where(
-        edges.corner_plain[vis.corner],
-        rates.at_depth(rates.miss_rate_plain, vis.Z),
-        rates.at_depth(rates.miss_rate_furniture, vis.Z),
-    )
-    found = np.flatnonzero(rng.random(len(vis)) >= miss)
+    # which images segment each seen edge: both, the left only, the right only, neither
+    p = rates.detection_at(edge_classes(edges, vis), vis.Z)
+    pick = rng.random(len(vis))
+    both = pick < p[:, 0]
+    left_only = ~both & (pick < p[:, 0] + p[:, 1])
+    right_only = ~both & ~left_only & (pick < p.sum(axis=1))
+    found = np.flatnonzero(both | left_only | right_only)
+    in_image = np.stack([both | left_only, both | right_only])[:, found]  # (2, n)
     n = found.size
     Z, u = vis.Z[found], vis.u[found]
     v0, v1 = vis.v_top[found], vis.v_bottom[found]
-    group = vis.group[found]
-    rows = np.floor(v1 - v0) + 1.0
-    s_vv = rows * (rows * rows - 1.0) / 12.0
-    point_var = np.full(n, rig.sigma_px**2)
-    bias_var = np.full(n, opts.bias_sigma_px**2)
-    # the fitted line's errors, left and right image: offset, slope, common bias
-    draw = rng.standard_normal((2, 3, n)) * rates.error_scale
-    offset = draw[:, 0] * np.sqrt(point_var / rows) + draw[:, 2] * np.sqrt(bias_var)
-    slope = draw[:, 1] * np.sqrt(point_var / s_vv)
-    false = rng.random(n) < rates.at_depth(rates.false_match_rate, Z)
+    pieces_of = image_pieces(edges, head, rig, u, Z, v0, v1, opts, end_loss_px=rates.end_loss_px)
+    false = in_image.all(axis=0) & (rng.random(n) < rates.at_depth(rates.false_match_rate, Z))
     wrong = np.asarray(rates.false_error_px)[rng.integers(len(rates.false_error_px), size=n)]
     wrong *= np.where(rng.random(n) < 0.5, -1.0, 1.0)
-    u_right = u - rig.fb / Z + np.where(false, wrong, 0.0)
-    # stray candidates: a second right segment of the edge's look-alike group
-    stray = np.flatnonzero(rng.random(n) < rates.at_depth(rates.stray_rate, Z))
-    shift = np.asarray(rates.stray_offset_px)[rng.integers(len(rates.stray_offset_px), size=n)]
-    shift *= np.where(rng.random(n) < 0.5, -1.0, 1.0)
-    v_c = 0.5 * (v0 + v1)
-    ends_v = np.stack([v0, v1], axis=1)
-    grey = group.astype(np.float64) * _GROUP_GREY
-    polarity = np.where(group % 2 == 0, 1, -1).astype(np.int8)
+    centre = np.stack([u, u - rig.fb / Z + np.where(false, wrong, 0.0)])  # (2, n)
     faces = FaceOptions()
     floor_lines = visible_floor_lines(
-        edges, head, rig, vis.corner[found], max_range_m=faces.max_range_m
+        edges, head, rig, vis.corner[found[in_image[0]]], max_range_m=faces.max_range_m
     )
     d = floor_lines[:, 1] - floor_lines[:, 0]
     length = np.hypot(d[:, 0], d[:, 1])
     flat = np.abs(d[:, 1]) < opts.sin_min_angle * length
     horizontal = floor_lines[flat & (length >= opts.min_length_px)]
 
-    def image(centre: FloatArray, k: int, extra: IntArray, lines: FloatArray) -> ImageSegments:
-        """The segments of image ``k`` (0 left, 1 right): one per found edge, then the strays
-        ``extra`` (rows of the found edges, moved by their ``shift``)."""
-        r = np.concatenate([np.arange(n), extra])
-        u_c = centre[r] + offset[k, r]
-        u_c[n:] += shift[extra]
-        slope_k = slope[k, r]
-        ends = np.stack(
-            [u_c[:, None] + slope_k[:, None] * (ends_v[r] - v_c[r, None]), ends_v[r]], -1
-        )
+    def image(k: int, lines: FloatArray) -> ImageSegments:
+        """The segments of image ``k`` (0 left, 1 right): the pieces of the edges it images."""
+        pieces = pieces_of[k]
+        r = np.flatnonzero(in_image[k, pieces.edge])
+        e = pieces.edge[r]
+        top, bottom = pieces.v_top[r], pieces.v_bottom[r]
+        m = r.size
+        n_rows = np.floor(bottom - top) + 1.0
+        s_vv = n_rows * (n_rows * n_rows - 1.0) / 12.0
+        point_var = np.full(m, rig.sigma_px**2)
+        bias_var = np.full(m, opts.bias_sigma_px**2)
+        # the fitted line's errors: offset, slope, common bias
+        draw = rng.standard_normal((3, m)) * rates.error_scale
+        offset = draw[0] * np.sqrt(point_var / n_rows) + draw[2] * np.sqrt(bias_var)
+        slope = draw[1] * np.sqrt(point_var / s_vv)
+        v_c = 0.5 * (top + bottom)
+        u_c = centre[k, e] + offset
+        ends_v = np.stack([top, bottom], axis=1)
+        ends = np.stack([u_c[:, None] + slope[:, None] * (ends_v - v_c[:, None]), ends_v], -1)
+        g = pieces.greys[:, r]
         return ImageSegments(
             endpoints=ends,
             u_center=u_c,
-            v_center=v_c[r],
-            slope=slope_k,
-            point_var=point_var[r],
-            n_points=rows[r].astype(np.int64),
-            s_vv=s_vv[r],
-            bias_var=bias_var[r],
-            polarity=polarity[r],
-            contrast=np.full(r.size, 30.0),
-            grey_left=grey[r],
-            grey_right=grey[r] + 0.5 * _GROUP_GREY,
+            v_center=v_c,
+            slope=slope,
+            point_var=point_var,
+            n_points=n_rows.astype(np.int64),
+            s_vv=s_vv,
+            bias_var=bias_var,
+            polarity=pieces.polarity[r],
+            contrast=np.abs(g[3] - g[2]) / (2.0 * opts.near_px),
+            grey_left=g[0],
+            grey_right=g[1],
+            grey_left_near=g[2],
+            grey_right_near=g[3],
             image_shape=(rig.height_px, rig.width_px),
             horizontal=lines,
         )
 
-    none = np.zeros(0, dtype=np.int64)
-    return image(u, 0, none, horizontal), image(u_right, 1, stray, np.zeros((0, 2, 2)))
+    return image(0, horizontal), image(1, np.zeros((0, 2, 2)))
 
 
 def perceive_surrogate(

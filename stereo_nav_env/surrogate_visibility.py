@@ -6,14 +6,17 @@ and, for :func:`modeling.faces.close_faces`, the *bottom edges* of faces where t
 :class:`SceneEdges` lists those of a scene once (every corner of every rendered part, with its
 height range, and every footprint side of a part standing on the floor); :func:`visible_edges`
 keeps, for one head pose, the ones in the field of view and range, facing the camera and not
-occluded, with the part of their height that is seen and where they fall in the left image.
+occluded, with the part of their height that is seen, where they fall in the left image, and
+whether each is an outline (one of its two sides faces the head) or a crease (both do). It also
+holds each face's rendered grey level (:mod:`stereo_nav_env.shading`), for the photometry.
 
 Occlusion (the sweep). The sight line from the head (world ``(x, y)``, height ``Hh``) to a point
 of an edge at height ``z`` and floor distance ``D`` runs at height ``Hh + (z - Hh) t`` at the
 fraction ``t`` of ``D``. A part (footprint crossed by the line between ``t0`` and ``t1``, heights
 ``[s0, s1]``) hides the heights ``z = Hh + (s - Hh) / t`` for ``s`` in ``[s0, s1]`` and ``t`` in
 ``[t0, t1]``: an interval whose ends are among its four corners. The lines are tested against all
-part footprints at once (a ``shapely.STRtree`` query, then the vectorised intersections); a corner
+part footprints at once (:func:`clip_to_parts`: a ``shapely.STRtree`` query, then the vectorised
+Cyrus-Beck clipping, which the photometry's rays use too); a corner
 whose line passes through its own part (a back corner) is hidden whole. An edge keeps its longest
 visible run of heights.
 
@@ -32,8 +35,17 @@ from numpy.typing import NDArray
 
 from modeling.rig import HeadPose, StereoRig
 from stereo_nav_env.scenes import ObstacleKind, Scene
+from stereo_nav_env.shading import (
+    BACKGROUND_COLOR,
+    BOTTOM_SHADE,
+    FLOOR_COLOR,
+    FLOOR_MARGIN_M,
+    TOP_SHADE,
+    face_shades,
+    grey_levels,
+)
 
-__all__ = ["SceneEdges", "VisibleEdges", "visible_edges", "visible_floor_lines"]
+__all__ = ["SceneEdges", "VisibleEdges", "clip_to_parts", "visible_edges", "visible_floor_lines"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -55,15 +67,23 @@ class SceneEdges:
         corner_xy: (C, 2) floor point of each corner edge. ``corner_z``: (C, 2) its bottom and top.
         corner_part: (C,) the part it belongs to.
         corner_normals: (C, 2, 2) outward unit normals of the part's two sides meeting there.
-        corner_group: (C,) edges of one group look alike (the same corner of identical parts of one
-            piece of furniture: legs, shelf sides and dividers); every other edge has its own.
+        corner_group: (C,) edges of one group are the same corner of identical parts of one piece
+            of furniture (legs, shelf sides and dividers: the repeated edges); every other edge
+            has its own. (What the matcher takes for one another is decided by the grey levels
+            beside the edges, :mod:`stereo_nav_env.surrogate_photometry`.)
         corner_plain: (C,) whether the edge is a corner of a wall or a box (a plain prism), not
             of furniture.
+        corner_kind: (C,) the kind of its obstacle, an index into ``tuple(ObstacleKind)``.
         side_start: (P, V, 2) each part's corners (the last repeated up to ``V``, the most any
             part has). ``side_normal``: (P, V, 2) the outward unit normal of the side from each.
         line_ends: (L, 2, 2) floor sides of the parts standing on the floor (``z_min`` 0), the
             part's counter-clockwise order. ``line_normal``: (L, 2) outward unit normals.
             ``line_corners``: (L, 2) the corner edges at their two ends.
+        side_grey: (P, V) the grey level the renderer gives each side face (padded like
+            ``side_start``); ``top_grey``, ``bottom_grey``: (P,) those of the top and bottom
+            faces (:mod:`stereo_nav_env.shading`).
+        floor_box: (4,) ``(xmin, ymin, xmax, ymax)`` of the rendered floor, metres.
+        floor_grey: The floor's grey level. ``background_grey``: that where no surface is.
     """
 
     polygons: NDArray[np.object_]
@@ -76,11 +96,18 @@ class SceneEdges:
     corner_normals: FloatArray
     corner_group: IntArray
     corner_plain: NDArray[np.bool_]
+    corner_kind: IntArray
     side_start: FloatArray
     side_normal: FloatArray
     line_ends: FloatArray
     line_normal: FloatArray
     line_corners: IntArray
+    side_grey: FloatArray
+    top_grey: FloatArray
+    bottom_grey: FloatArray
+    floor_box: FloatArray
+    floor_grey: float
+    background_grey: float
 
     @classmethod
     def of(cls, scene: Scene) -> SceneEdges:
@@ -88,12 +115,15 @@ class SceneEdges:
         polys: list[shapely.Polygon] = []
         z_min: list[float] = []
         z_max: list[float] = []
-        xy, zz, part_of, normals, groups, plain = [], [], [], [], [], []
+        xy, zz, part_of, normals, groups, plain, kinds = [], [], [], [], [], [], []
+        kind_index = {kind: k for k, kind in enumerate(ObstacleKind)}
         ends: list[FloatArray] = []
         line_n: list[FloatArray] = []
         starts: list[FloatArray] = []
         side_n: list[FloatArray] = []
         line_c: list[tuple[int, int]] = []
+        side_c: list[FloatArray] = []
+        flat_c: list[FloatArray] = []
         keys: dict[tuple[object, ...], int] = {}
         for o, ob in enumerate(scene.obstacles):
             for part in ob.parts:
@@ -107,6 +137,9 @@ class SceneEdges:
                 n /= np.linalg.norm(n, axis=1, keepdims=True)
                 starts.append(fp)
                 side_n.append(n)
+                base = np.asarray(part.color, dtype=np.float64)
+                side_c.append(face_shades(n)[:, None] * base)
+                flat_c.append(np.stack([TOP_SHADE * base, BOTTOM_SHADE * base]))
                 dims = tuple(np.round(np.linalg.norm(side, axis=1), 3).tolist())
                 for k in range(fp.shape[0]):
                     xy.append(fp[k])
@@ -120,6 +153,7 @@ class SceneEdges:
                     )
                     groups.append(keys.setdefault(key, len(keys)))
                     plain.append(ob.kind not in _REPEATED_KINDS)
+                    kinds.append(kind_index[ob.kind])
                 if part.z_min_m <= 1e-6:
                     first = len(xy) - fp.shape[0]
                     ends.extend(np.stack([fp, np.roll(fp, -1, axis=0)], axis=1))
@@ -130,10 +164,14 @@ class SceneEdges:
         v_max = max((fp.shape[0] for fp in starts), default=1)
 
         def padded(rows: list[FloatArray]) -> FloatArray:
-            out = np.zeros((len(rows), v_max, 2))
+            out = np.zeros((len(rows), v_max, rows[0].shape[1] if rows else 2))
             for p, r in enumerate(rows):
                 out[p] = np.concatenate([r, np.repeat(r[-1:], v_max - r.shape[0], axis=0)])
             return out
+
+        x0, y0, x1, y1 = scene.bounds
+        m = FLOOR_MARGIN_M
+        flat = grey_levels(np.array(flat_c).reshape(-1, 2, 3))
 
         return cls(
             polygons=np.array(polys, dtype=object),
@@ -146,11 +184,18 @@ class SceneEdges:
             corner_normals=np.array(normals).reshape(-1, 2, 2),
             corner_group=np.array(groups, dtype=np.int64),
             corner_plain=np.array(plain, dtype=bool),
+            corner_kind=np.array(kinds, dtype=np.int64),
             side_start=padded(starts),
             side_normal=padded(side_n),
             line_ends=np.array(ends).reshape(-1, 2, 2),
             line_normal=np.array(line_n).reshape(-1, 2),
             line_corners=np.array(line_c, dtype=np.int64).reshape(-1, 2),
+            side_grey=grey_levels(padded(side_c)),
+            top_grey=flat[:, 0],
+            bottom_grey=flat[:, 1],
+            floor_box=np.array([x0 - m, y0 - m, x1 + m, y1 + m]),
+            floor_grey=float(grey_levels(np.array(FLOOR_COLOR))),
+            background_grey=float(grey_levels(np.array(BACKGROUND_COLOR))),
         )
 
 
@@ -163,7 +208,10 @@ class VisibleEdges:
         X, Z: (n,) camera coordinates of the edge, metres (right, depth).
         z_low, z_high: (n,) the seen run of its heights, metres.
         u: (n,) its column in the left image, px. ``v_top``, ``v_bottom``: (n,) rows of the run.
-        group: (n,) its look-alike group (``SceneEdges.corner_group``).
+        group: (n,) its group of repeated edges (``SceneEdges.corner_group``).
+        crease: (n,) whether both sides meeting at the edge face the head: the edge is seen
+            between two faces of its part (a crease, imaged only by their shading step), not as
+            an outline against what lies behind it.
     """
 
     corner: IntArray
@@ -175,6 +223,7 @@ class VisibleEdges:
     v_top: FloatArray
     v_bottom: FloatArray
     group: IntArray
+    crease: NDArray[np.bool_]
 
     def __len__(self) -> int:
         return int(self.corner.shape[0])
@@ -199,14 +248,45 @@ def _in_view(X: FloatArray, Z: FloatArray, rig: StereoRig, margin_px: float) -> 
     return out
 
 
-def _blocked(
-    edges: SceneEdges, head: HeadPose, targets: FloatArray
-) -> tuple[IntArray, IntArray, FloatArray, FloatArray]:
-    """The parts crossing the sight lines from the head to floor points ``targets`` (n, 2).
+def clip_to_parts(
+    edges: SceneEdges, start: FloatArray, stop: FloatArray
+) -> tuple[IntArray, IntArray, FloatArray, FloatArray, IntArray]:
+    """The parts' footprints crossed by the floor lines from ``start`` to ``stop`` (m, 2) each.
 
     The STRtree gives the parts whose bounding boxes the lines meet; each line is then clipped to
     each such (convex) footprint (Cyrus-Beck: the line's parameter enters at the largest ``t`` of
     the sides it crosses inwards and leaves at the smallest of those it crosses outwards).
+
+    Returns:
+        ``(line, part, t0, t1, side)``: one row per crossing, the fractions of the line (from
+        ``start``) between which it is inside the part's footprint, and the side it enters
+        through (index into ``SceneEdges.side_start``; -1 where it starts inside).
+    """
+    lines = shapely.linestrings(np.stack([start, stop], axis=1))
+    line, part = edges.tree.query(lines)
+    a, n = edges.side_start[part], edges.side_normal[part]  # (k, V, 2)
+    origin = start[line]
+    step = (stop - start)[line]  # (k, 2)
+    num = np.einsum("kvi,kvi->kv", n, a - origin[:, None])
+    den = np.einsum("kvi,ki->kv", n, step)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = num / den
+    outside = np.any((den == 0) & (num < 0), axis=1)
+    t_in = np.where(den < 0, t, -np.inf)
+    side = np.argmax(t_in, axis=1)
+    t_enter = t_in[np.arange(side.size), side]
+    t0 = np.maximum(t_enter, 0.0)
+    t1 = np.minimum(np.where(den > 0, t, np.inf).min(axis=1), 1.0)
+    hit = np.flatnonzero(~outside & (t1 > t0))
+    side = np.where(t_enter[hit] >= 0.0, side[hit], -1)
+    return line[hit], part[hit], t0[hit], t1[hit], side
+
+
+def _blocked(
+    edges: SceneEdges, head: HeadPose, targets: FloatArray
+) -> tuple[IntArray, IntArray, FloatArray, FloatArray]:
+    """The parts crossing the sight lines from the head to floor points ``targets`` (n, 2)
+    (:func:`clip_to_parts`; the lines stop ``_PULL_BACK_M`` short of the targets).
 
     Returns:
         ``(line, part, t0, t1)``: one row per crossing, the fractions of the line's floor length
@@ -216,20 +296,9 @@ def _blocked(
     d = targets - head_xy
     length = np.hypot(d[:, 0], d[:, 1])
     stop = targets - d * (_PULL_BACK_M / np.maximum(length, 1e-9))[:, None]
-    lines = shapely.linestrings(np.stack([np.broadcast_to(head_xy, stop.shape), stop], axis=1))
-    line, part = edges.tree.query(lines)
-    a, n = edges.side_start[part], edges.side_normal[part]  # (k, V, 2)
-    step = (stop - head_xy)[line]  # (k, 2)
-    num = np.einsum("kvi,kvi->kv", n, a - head_xy)
-    den = np.einsum("kvi,ki->kv", n, step)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = num / den
-    outside = np.any((den == 0) & (num < 0), axis=1)
-    t0 = np.maximum(np.where(den < 0, t, -np.inf).max(axis=1), 0.0)
-    t1 = np.minimum(np.where(den > 0, t, np.inf).min(axis=1), 1.0)
-    hit = np.flatnonzero(~outside & (t1 > t0))
-    scale = 1.0 - _PULL_BACK_M / np.maximum(length[line[hit]], 1e-9)
-    return line[hit], part[hit], t0[hit] * scale, t1[hit] * scale
+    line, part, t0, t1, _ = clip_to_parts(edges, np.broadcast_to(head_xy, stop.shape), stop)
+    scale = 1.0 - _PULL_BACK_M / np.maximum(length[line], 1e-9)
+    return line, part, t0 * scale, t1 * scale
 
 
 def visible_edges(
@@ -238,9 +307,10 @@ def visible_edges(
     """The vertical edges the head sees, each with its longest visible run of heights.
 
     An edge is seen where it lies in the disparity range and in both images' columns, where one
-    of the two sides meeting at it faces the head, and along the heights no part hides (the
-    module docstring) inside the image's rows. Its image run is trimmed by ``trim_px`` at both
-    ends (the fit's trimmed rows) and must keep ``min_length_px`` rows.
+    of the two sides meeting at it faces the head (an outline; both: a crease), and along the
+    heights no part hides (the module docstring) inside the image's rows. Its image run is
+    trimmed by ``trim_px`` at both ends (the fit's trimmed rows) and must keep ``min_length_px``
+    rows.
 
     Args:
         edges: The scene's edges.
@@ -304,6 +374,7 @@ def visible_edges(
         v_top=v_top[sel],
         v_bottom=v_bottom[sel],
         group=edges.corner_group[corner],
+        crease=facing[corner].all(axis=1),
     )
 
 
