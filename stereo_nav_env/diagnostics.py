@@ -37,10 +37,21 @@ are always present.
 * ``situations``, ``residual_probability``: the model's count of situations and its left-out mass.
 
 The env gives the same figures of the fused model (:func:`modeling.memory.build_memory_model`,
-``info["memory_model"]``) beside these, named ``memory_<name>`` (``memory_passability_brier``,
-``memory_p_true_candidate``, ``memory_coverage_95``, ...): its fused segments and the candidates
+``info["memory_model"]``) beside these, named ``memory_<name>`` (:func:`memory_diagnostics`:
+``memory_passability_brier``, ``memory_coverage_95``, ...): its fused segments and the candidates
 of the ambiguities still open, against the same true outlines; its gaps scored are those in the
-latest view, as for the single view.
+latest view, as for the single view. Two figures of the ambiguities differ:
+
+* ``memory_p_true_candidate`` scores the *same* ambiguities as ``p_true_candidate``, those of the
+  latest view, each with the memory's belief in its true choice once the view is fused
+  (:func:`memory_beliefs`): the largest existence of a remembered segment (one reported, at least
+  ``report_existence``) or probability of an open candidate within the association gate of the
+  true candidate; when no candidate is real, 1 minus the largest such belief over its candidates.
+  An ambiguity the memory has resolved is scored too, right (belief near 1) or wrong (near 0);
+* ``memory_open_p_true_candidate`` is ``p_true_candidate`` of the fused model itself: only the
+  ambiguities the memory still holds open. One leaves the figure when it resolves (at
+  ``MemoryOptions.resolve_probability``), so the figure measures the ambiguities the memory
+  could not decide and moves with that threshold as much as with the evidence.
 
 Everything is vectorised over endpoints and outline edges; the ground truth that does not change
 within an episode is prepared once per scene by :meth:`GroundTruth.of`.
@@ -57,10 +68,19 @@ from numpy.typing import NDArray
 from modeling.faces import FACE_SOURCE
 from modeling.geometry import wrap_angle
 from modeling.jit import compiled_on_first_call
+from modeling.memory import ModelMemory
+from modeling.memory_association import gated_pairs, stack_of
 from modeling.model import EnvironmentModel
 from stereo_nav_env.scenes import Scene
 
-__all__ = ["DIAGNOSTIC_NAMES", "GroundTruth", "model_diagnostics", "normalised_outline_errors"]
+__all__ = [
+    "DIAGNOSTIC_NAMES",
+    "GroundTruth",
+    "memory_beliefs",
+    "memory_diagnostics",
+    "model_diagnostics",
+    "normalised_outline_errors",
+]
 
 FloatArray = NDArray[np.float64]
 DIAGNOSTIC_NAMES = (
@@ -327,3 +347,60 @@ def model_diagnostics(
     out["situations"] = float(len(model.situations))
     out["residual_probability"] = float(model.residual_probability)
     return {prefix + name: out[name] for name in DIAGNOSTIC_NAMES if not math.isnan(out[name])}
+
+
+def memory_beliefs(
+    model: EnvironmentModel, memory: ModelMemory, truth: GroundTruth, gate_chi2: float
+) -> list[tuple[float, float]]:
+    """``(view's, memory's)`` probability of the true choice of each ambiguity of ``model``'s
+    view (the module docstring), the true choice found as for ``p_true_candidate``.
+
+    Args:
+        model: The model of the view (its ambiguous segments are scored).
+        memory: The memory with that view fused.
+        truth: The scene's ground truth.
+        gate_chi2: The association gate (squared Mahalanobis distance of an endpoint pair) within
+            which a remembered segment or candidate stands for a view's candidate.
+    """
+    segs, cands = memory.segment_arrays, memory.candidate_arrays
+    assert segs is not None and cands is not None  # made by ModelMemory.__post_init__
+    existence = np.asarray(memory.existence)
+    reported = existence >= memory.report_existence
+    out: list[tuple[float, float]] = []
+    for amb in model.observation.ambiguous:
+        st = stack_of(list(amb.candidates))
+        z = normalised_outline_errors(st.ends.reshape(-1, 2), st.cov.reshape(-1, 2, 2), truth.edges)
+        score = (z**2).reshape(-1, 2).mean(axis=1)
+        best = int(np.argmin(score))
+        real = bool(score[best] <= _CHI2_2_99)
+        belief = np.zeros(len(amb.candidates))
+        for ends, cov, p in (
+            (segs.ends[reported], segs.cov[reported], existence[reported]),
+            (cands.stack.ends, cands.stack.cov, np.asarray(cands.prob)),
+        ):
+            pairs = gated_pairs(st.ends, st.cov, ends, cov, gate_chi2)
+            np.maximum.at(belief, pairs.rows, p[pairs.cols])
+        view = amb.probabilities[best] if real else amb.p_none
+        out.append((view, float(belief[best]) if real else 1.0 - float(belief.max())))
+    return out
+
+
+def memory_diagnostics(
+    memory_model: EnvironmentModel,
+    memory: ModelMemory,
+    gate_chi2: float,
+    view_model: EnvironmentModel,
+    truth: GroundTruth,
+) -> dict[str, float]:
+    """The fused model's figures, ``memory_<name>`` (the module docstring): those of
+    :func:`model_diagnostics` with ``memory_p_true_candidate`` over the ambiguities of
+    ``view_model`` (:func:`memory_beliefs`) and the fused model's own, over the ambiguities
+    still open, as ``memory_open_p_true_candidate``."""
+    out = model_diagnostics(memory_model, truth, prefix="memory_")
+    own = out.pop("memory_p_true_candidate", None)
+    if own is not None:
+        out["memory_open_p_true_candidate"] = own
+    beliefs = memory_beliefs(view_model, memory, truth, gate_chi2)
+    if beliefs:
+        out["memory_p_true_candidate"] = float(np.mean([b for _, b in beliefs]))
+    return out

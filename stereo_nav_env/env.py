@@ -27,7 +27,7 @@ from modeling.rig import HeadPose, StereoRig
 from modeling.worker import worker
 from stereo_nav_env.actions import DISCRETE_ACTIONS, continuous_command, discrete_command
 from stereo_nav_env.config import EnvConfig
-from stereo_nav_env.diagnostics import GroundTruth, model_diagnostics
+from stereo_nav_env.diagnostics import GroundTruth, memory_diagnostics, model_diagnostics
 from stereo_nav_env.fusion import fuse_view, memory_model_of, memory_options
 from stereo_nav_env.geodesic import GeodesicField
 from stereo_nav_env.observation import (
@@ -433,9 +433,9 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         if self.config.diagnostics:
             assert self._truth is not None
             diagnostics = model_diagnostics(self.model, self._truth)
-            if self.memory_model is not None:
-                memory = model_diagnostics(self.memory_model, self._truth, prefix="memory_")
-                diagnostics.update(memory)
+            if self.memory is not None and self.memory_model is not None:
+                fused = (self.memory_model, self.memory, self.memory_options.gate_chi2)
+                diagnostics |= memory_diagnostics(*fused, self.model, self._truth)
         watch.lap("diagnostics")
         return {
             "model": self.model,

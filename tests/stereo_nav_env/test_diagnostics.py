@@ -7,11 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from modeling.model import build_model
+from modeling.model import EnvironmentModel, build_model
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
+from modeling.memory import ModelMemory, fuse
 from stereo_nav_env.diagnostics import (
     DIAGNOSTIC_NAMES,
     GroundTruth,
+    memory_beliefs,
+    memory_diagnostics,
     model_diagnostics,
     normalised_outline_errors,
     normalised_outline_errors_reference,
@@ -143,3 +146,50 @@ def test_outline_error_loop_equals_its_numpy_reference(seed: int) -> None:
     got = normalised_outline_errors(pts, cov, edges)
     np.testing.assert_array_equal(got, normalised_outline_errors_reference(pts, cov, edges))
     assert got[0] == 0.0
+
+
+def _ghost_and_wall() -> tuple[EnvironmentModel, FloorSegment, GroundTruth]:
+    """A view whose one ambiguity is a ghost (0.6) or the wall at x = 4 (0.4, the true one)."""
+    height = np.array([0.0, 0.5])
+    wall = FloorSegment(endpoints=np.array([[4.0, -0.5], [4.0, 0.5]]), cov=COV, height_m=height)
+    ghost = FloorSegment(endpoints=np.array([[2.5, -0.3], [2.5, 0.3]]), cov=COV, height_m=height)
+    truth = GroundTruth(
+        edges=np.array([[[4.0, -1.0], [4.0, 1.0]]]),
+        gap_points=np.zeros((0, 2, 2)),
+        gap_passable=np.zeros(0, dtype=bool),
+    )
+    amb = AmbiguousSegment(candidates=(ghost, wall), probabilities=(0.6, 0.4))
+    return build_model(FloorObservation(ambiguous=(amb,)), 0.5), wall, truth
+
+
+def test_memory_beliefs_read_the_memory_at_the_true_candidate() -> None:
+    view, wall, truth = _ghost_and_wall()
+    memory = fuse(ModelMemory.empty(), FloorObservation(segments=(wall,)))  # existence 0.5
+    assert memory_beliefs(view, memory, truth, 13.28) == [(0.4, 0.5)]
+    # no candidate on the outline: the truth is "none", believed as 1 - the largest belief
+    far = GroundTruth(
+        edges=truth.edges + 5.0, gap_points=truth.gap_points, gap_passable=truth.gap_passable
+    )
+    ((p_view, belief),) = memory_beliefs(view, memory, far, 13.28)
+    assert p_view == pytest.approx(0.0) and belief == 0.5
+
+
+def test_memory_p_true_candidate_scores_the_views_ambiguities_resolved_or_open() -> None:
+    view, wall, truth = _ghost_and_wall()
+    # the memory resolved the wall (a remembered segment, existence 0.9): the view's ambiguity
+    # scores 0.9 though the memory holds no ambiguity open
+    resolved = ModelMemory(segments=(wall,), existence=(0.9,), last_seen=(0,))
+    model = build_model(resolved.observation(), 0.5)
+    d = memory_diagnostics(model, resolved, 13.28, view, truth)
+    assert d["memory_p_true_candidate"] == pytest.approx(0.9)
+    assert "memory_open_p_true_candidate" not in d and d["memory_ambiguous_segments"] == 0.0
+    # the memory holds the view's ambiguity open: both figures are its probability of the wall
+    held = fuse(ModelMemory.empty(), view.observation)
+    p_wall = held.ambiguous[0].probabilities[1]
+    assert 0.3 < p_wall <= 0.4  # the view's 0.4, shrunk towards "none" by the first view
+    d = memory_diagnostics(build_model(held.observation(), 0.5), held, 13.28, view, truth)
+    assert d["memory_open_p_true_candidate"] == pytest.approx(p_wall)
+    assert d["memory_p_true_candidate"] == pytest.approx(p_wall)
+    # a view without ambiguities: nothing to score
+    plain = build_model(FloorObservation(segments=(wall,)), 0.5)
+    assert "memory_p_true_candidate" not in memory_diagnostics(model, resolved, 13.28, plain, truth)
