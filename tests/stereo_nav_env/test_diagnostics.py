@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
+from modeling.memory import ModelMemory, fuse
 from modeling.model import EnvironmentModel, build_model
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
-from modeling.memory import ModelMemory, fuse
 from stereo_nav_env.diagnostics import (
     DIAGNOSTIC_NAMES,
     GroundTruth,
