@@ -9,6 +9,12 @@ fits when ``w > robot width``. Going for the region costs, in expectation,
 take the best alternative from there). The best alternative from here is ``C_alt`` (the region
 taken as impassable). Committing now is worth ``min(C_via(p), C_alt)``.
 
+The model's passability ``p`` is exact (:mod:`modeling.gaps`: the region's width from its two
+endpoints' 2-D normal distributions, not a normal distribution itself); the route weights use it.
+So that a look is valued with the same ``p``, the width is taken as ``N(mean', std^2)`` with the
+mean calibrated to it (:func:`calibrated_mean`: ``P(w > robot width) = p`` exactly) and the
+model's std; the preposterior expectation of ``p'`` is then ``p`` again.
+
 Looking at the region (panning the head to it) or approaching it gives a new measurement of its
 width with a smaller standard deviation ``meas_std`` (stereo depth error grows with the square of
 the distance). After it, the decision is taken with the posterior ``p'``; before it, ``p'`` is
@@ -27,10 +33,11 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.special import ndtr
+from scipy.special import ndtr, ndtri
 
 __all__ = [
     "GateCosts",
+    "calibrated_mean",
     "expected_after_measurement",
     "p_wider",
     "predicted_std",
@@ -47,6 +54,22 @@ def p_wider(mean_m: float, std_m: float, width_m: float) -> float:
     if std_m <= 0:
         return 1.0 if mean_m > width_m else 0.0
     return float(ndtr((mean_m - width_m) / std_m))
+
+
+def calibrated_mean(p: float, std_m: float, width_m: float) -> float:
+    """The mean of ``N(mean, std_m^2)`` for which ``P(w > width_m) = p``: the width distribution
+    of a region whose exact passability is ``p`` (``p`` in [0, 1]; the mean is kept within
+    ``9 std`` of ``width_m``, so that ``p`` of 0 or 1 stays finite).
+
+    Raises:
+        ValueError: If ``p`` is not in [0, 1] or ``std_m`` is negative.
+    """
+    if not 0.0 <= p <= 1.0:
+        raise ValueError(f"p must be a probability, got {p!r}")
+    if not std_m >= 0.0:
+        raise ValueError(f"std_m must be >= 0, got {std_m!r}")
+    z = float(np.clip(ndtri(p), -9.0, 9.0))
+    return width_m + max(std_m, 1e-9) * z
 
 
 def predicted_std(std_m: float, seen_m: float, from_m: float, floor_m: float = 0.01) -> float:

@@ -29,8 +29,8 @@ from agents.config import NavigatorConfig
 from agents.costmap import CostGrid, GateEdge, cost_from, cost_to_go
 from agents.decision import (
     GateCosts,
+    calibrated_mean,
     expected_after_measurement,
-    p_wider,
     predicted_std,
     value_of_information,
 )
@@ -181,7 +181,9 @@ def best_information(
         )
         if costs.via(1.0) >= costs.alt_m:
             continue  # even if passable it would not help
-        mean, std = g.width_mean_m, g.width_std_m
+        # the width's normal, calibrated to the gate's exact passability (the route's p)
+        std = g.width_std_m
+        mean = calibrated_mean(g.p_passable, std, width_m)
         ref = min(g.seen_distance_m, g.viewed_distance_m)
         dist = float(np.hypot(*(g.midpoint - here)))
         # Look from here.
@@ -225,7 +227,7 @@ def best_information(
         after = float(from_robot[p_cell]) + expected_after_measurement(
             mean, std, sigma, width_m, from_p.commit
         )
-        gain = float(costs.commit(p_wider(mean, std, width_m))) - after
+        gain = float(costs.commit(g.p_passable)) - after
         gains[("approach", e.gate)] = gain
         if gain > approach_gain:
             approach_gain = gain

@@ -14,6 +14,7 @@ import pytest
 from agents.base import ControlLimits
 from agents.decision import (
     GateCosts,
+    calibrated_mean,
     expected_after_measurement,
     p_wider,
     predicted_std,
@@ -109,6 +110,43 @@ def test_planner_looks_before_committing_when_looking_is_cheap(far_gap) -> None:
     costly.observe(far, 0)
     costly.observe(away, 1)
     assert costly.plan((2.0, 2.5, math.pi / 2, 0.0)).mode in (Mode.FOLLOW, Mode.APPROACH)
+
+
+def test_a_look_is_valued_with_the_gates_exact_passability_not_its_gaussian_width(
+    far_gap,
+) -> None:
+    far, away = far_gap
+
+    def look_gain(shift_std: float) -> float:
+        core = _core("planner", (0, 0, 7, 6), (6.0, 2.5))
+        core.observe(far, 0)
+        core.observe(away, 1)
+        (gate,) = core.gates.gates
+        # a width mean 4 std wider: as a normal, certainly passable (p_wider 0.99997); the
+        # exact passability of the model, which the route weights use, is unchanged
+        gate.width_mean_m += shift_std * gate.width_std_m
+        decision = core.plan((2.0, 2.5, math.pi / 2, 0.0))
+        return decision.gains[("look", 0)]
+
+    assert look_gain(0.0) > 0.05
+    assert look_gain(4.0) == pytest.approx(look_gain(0.0), abs=1e-12)
+
+
+def test_the_calibrated_width_gives_the_exact_passability_before_and_after_a_look() -> None:
+    # the sideways case of issue 16: the width as a normal says 0.694, the exact model 0.573
+    std, width = 0.12, 0.5
+    for p in (0.02, 0.3, 0.573, 0.694, 0.97):
+        mean = calibrated_mean(p, std, width)
+        assert p_wider(mean, std, width) == pytest.approx(p, abs=1e-12)
+        # the preposterior mean of p' is p (a look is expected to confirm nothing on average)
+        after = expected_after_measurement(mean, std, 0.05, width, lambda q: q)
+        assert after == pytest.approx(p, abs=1e-6)
+    assert p_wider(calibrated_mean(1.0, std, width), std, width) == pytest.approx(1.0)
+    assert calibrated_mean(0.5, 0.0, width) == pytest.approx(width)
+    with pytest.raises(ValueError, match="p must be"):
+        calibrated_mean(1.5, std, width)
+    with pytest.raises(ValueError, match="std_m"):
+        calibrated_mean(0.5, -0.1, width)
 
 
 def test_greedy_never_looks(far_gap) -> None:
