@@ -34,6 +34,7 @@ import shapely
 from numpy.typing import NDArray
 
 from modeling.rig import HeadPose, StereoRig
+from stereo_nav_env._visibility_loops import floor_hidden_loop, seen_runs_loop
 from stereo_nav_env.scenes import ObstacleKind, Scene
 from stereo_nav_env.shading import (
     BACKGROUND_COLOR,
@@ -45,10 +46,21 @@ from stereo_nav_env.shading import (
     grey_levels,
 )
 
-__all__ = ["SceneEdges", "VisibleEdges", "clip_to_parts", "visible_edges", "visible_floor_lines"]
+__all__ = [
+    "SceneEdges",
+    "VisibleEdges",
+    "clip_to_parts",
+    "floor_hidden",
+    "floor_hidden_reference",
+    "seen_runs",
+    "seen_runs_reference",
+    "visible_edges",
+    "visible_floor_lines",
+]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
 
 _PULL_BACK_M = 0.005
 """The sight line stops this short of the edge, so that it does not touch the edge's own part."""
@@ -331,6 +343,34 @@ def visible_edges(
     z_img_high = Hh - (trim_px - cy) * Z / f
     low = np.maximum(edges.corner_z[cand, 0], z_img_low)
     high = np.minimum(edges.corner_z[cand, 1], z_img_high)
+    low, high = seen_runs(edges, head, cand, low, high)
+    v_top = cy + f * (Hh - high) / Z
+    v_bottom = cy + f * (Hh - low) / Z
+    keep = v_bottom - v_top >= min_length_px
+    sel = np.flatnonzero(keep)
+    corner = cand[sel]
+    return VisibleEdges(
+        corner=corner,
+        X=X[sel],
+        Z=Z[sel],
+        z_low=low[sel],
+        z_high=high[sel],
+        u=cx + f * X[sel] / Z[sel],
+        v_top=v_top[sel],
+        v_bottom=v_bottom[sel],
+        group=edges.corner_group[corner],
+        crease=facing[corner].all(axis=1),
+    )
+
+
+def seen_runs_reference(
+    edges: SceneEdges, head: HeadPose, cand: IntArray, low: FloatArray, high: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """:func:`seen_runs` in NumPy: the sight lines clipped to every part at once
+    (:func:`_blocked`), the hidden interval of each crossing, then per edge its longest run
+    outside them (one interval: at once; more: :func:`_longest_run`)."""
+    low, high = low.copy(), high.copy()
+    Hh = head.height_m
     line, part, t0, t1 = _blocked(edges, head, edges.corner_xy[cand])
     own = part == edges.corner_part[cand][line]
     # hidden heights: Hh + (s - Hh) / t over s in [z_min, z_max], t in [t0, t1]
@@ -340,7 +380,6 @@ def visible_edges(
     hide_lo = corners.reshape(-1, 4).min(axis=1)
     hide_hi = corners.reshape(-1, 4).max(axis=1)
     hide_lo[own], hide_hi[own] = -np.inf, np.inf
-    keep = np.ones(cand.size, dtype=bool)
     count = np.bincount(line, minlength=cand.size)
     # one hiding interval (the usual case), at once: the longer of the runs below and above it
     one = np.flatnonzero(count[line] == 1)
@@ -359,22 +398,29 @@ def visible_edges(
         low[i], high[i] = _longest_run(
             low[i], high[i], hide_lo[rows].tolist(), hide_hi[rows].tolist()
         )
-    v_top = cy + f * (Hh - high) / Z
-    v_bottom = cy + f * (Hh - low) / Z
-    keep &= v_bottom - v_top >= min_length_px
-    sel = np.flatnonzero(keep)
-    corner = cand[sel]
-    return VisibleEdges(
-        corner=corner,
-        X=X[sel],
-        Z=Z[sel],
-        z_low=low[sel],
-        z_high=high[sel],
-        u=cx + f * X[sel] / Z[sel],
-        v_top=v_top[sel],
-        v_bottom=v_bottom[sel],
-        group=edges.corner_group[corner],
-        crease=facing[corner].all(axis=1),
+    return low, high
+
+
+def seen_runs(
+    edges: SceneEdges, head: HeadPose, cand: IntArray, low: FloatArray, high: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """The longest run of heights of each edge ``cand`` (indices into ``corner_xy``) within
+    ``[low, high]`` that no part hides from the head (the module docstring's sweep); one
+    compiled pass over the edges and parts (:func:`seen_runs_reference` is the same in NumPy,
+    and a test holds them equal)."""
+    return seen_runs_loop(
+        head.x_m,
+        head.y_m,
+        head.height_m,
+        np.ascontiguousarray(edges.corner_xy[cand]),
+        edges.corner_part[cand],
+        np.asarray(low, dtype=np.float64),
+        np.asarray(high, dtype=np.float64),
+        edges.side_start,
+        edges.side_normal,
+        edges.z_min,
+        edges.z_max,
+        _PULL_BACK_M,
     )
 
 
@@ -394,6 +440,35 @@ def _longest_run(
     if high - cursor > best[1] - best[0]:
         best = (cursor, high)
     return best
+
+
+def floor_hidden_reference(edges: SceneEdges, head: HeadPose, points: FloatArray) -> BoolArray:
+    """:func:`floor_hidden` in NumPy: the sight lines clipped to every part at once
+    (:func:`_blocked`)."""
+    Hh = head.height_m
+    line, part, t0, t1 = _blocked(edges, head, points)
+    # the floor point (t = 1) is hidden by a part whose height range the sight line (at height
+    # Hh (1 - t)) meets between t0 and t1
+    out = np.zeros(points.shape[0], dtype=bool)
+    out[line[(Hh * (1.0 - t0) > edges.z_min[part]) & (Hh * (1.0 - t1) < edges.z_max[part])]] = True
+    return out
+
+
+def floor_hidden(edges: SceneEdges, head: HeadPose, points: FloatArray) -> BoolArray:
+    """(n,) whether a part hides each floor point (n, 2) from the head; one compiled pass over
+    the points and parts (:func:`floor_hidden_reference` is the same in NumPy, and a test
+    holds them equal)."""
+    return floor_hidden_loop(
+        head.x_m,
+        head.y_m,
+        head.height_m,
+        np.ascontiguousarray(points, dtype=np.float64),
+        edges.side_start,
+        edges.side_normal,
+        edges.z_min,
+        edges.z_max,
+        _PULL_BACK_M,
+    )
 
 
 def visible_floor_lines(
@@ -436,12 +511,7 @@ def visible_floor_lines(
     f, (cx, cy), Hh = rig.focal_px, rig.principal_point_px, head.height_m
     seen = _in_view(X, Z, rig, 1.0)
     seen &= cy + f * Hh / np.where(Z > 0, Z, 1.0) <= rig.height_px - 1.0
-    line, part, t0, t1 = _blocked(edges, head, flat)
-    # the floor point (t = 1) is hidden by a part whose height range the sight line (at height
-    # Hh (1 - t)) meets between t0 and t1
-    seen[line[(Hh * (1.0 - t0) > edges.z_min[part]) & (Hh * (1.0 - t1) < edges.z_max[part])]] = (
-        False
-    )
+    seen &= ~floor_hidden(edges, head, flat)
     seen = seen.reshape(lines.size, samples)
     # runs of seen samples: a start where the previous sample is unseen, a stop where the next is
     pad = np.zeros((lines.size, samples + 2), dtype=bool)

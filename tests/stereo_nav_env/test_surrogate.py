@@ -16,7 +16,7 @@ from modeling.rig import HeadPose, StereoRig
 from modeling.triangulation import triangulate_to_floor
 from stereo_nav_env.config import EnvConfig
 from stereo_nav_env.env import StereoNavEnv
-from stereo_nav_env.scenes import BoxPart, Obstacle, ObstacleKind, Scene
+from stereo_nav_env.scenes import BoxPart, Obstacle, ObstacleKind, Scene, generate_scene
 from stereo_nav_env.scenes.parts import make_obstacle, oriented_rect
 from stereo_nav_env.surrogate import (
     EDGE_CLASSES,
@@ -25,7 +25,14 @@ from stereo_nav_env.surrogate import (
     perceive_surrogate,
     surrogate_segments,
 )
-from stereo_nav_env.surrogate_visibility import SceneEdges, visible_edges
+from stereo_nav_env.surrogate_visibility import (
+    SceneEdges,
+    floor_hidden,
+    floor_hidden_reference,
+    seen_runs,
+    seen_runs_reference,
+    visible_edges,
+)
 
 RIG = StereoRig()
 HEAD = HeadPose(x_m=0.5, y_m=2.5, heading_rad=0.0, height_m=0.8)
@@ -308,3 +315,34 @@ def test_segments_stop_the_end_loss_short_of_the_seen_run() -> None:
         np.testing.assert_allclose(
             left.endpoints[order, 1, 1], vis.v_bottom[np.argsort(vis.u)] - loss
         )
+
+
+@pytest.mark.parametrize("family", ["office", "cluttered", "room", "corridor"])
+def test_the_compiled_sweep_equals_its_numpy_reference(family: str) -> None:
+    rng = np.random.default_rng(7)
+    hidden = runs_cut = 0
+    for seed in range(3):
+        scene = generate_scene(seed, family=family)
+        edges = SceneEdges.of(scene)
+        x0, y0, x1, y1 = scene.bounds
+        every = np.arange(edges.corner_xy.shape[0])
+        for _ in range(20):
+            head = HeadPose(
+                x_m=rng.uniform(x0, x1),
+                y_m=rng.uniform(y0, y1),
+                heading_rad=rng.uniform(-math.pi, math.pi),
+                height_m=rng.uniform(0.5, 1.2),
+            )
+            low = edges.corner_z[:, 0] - rng.uniform(0.0, 0.2, every.size)
+            high = edges.corner_z[:, 1] + rng.uniform(0.0, 0.2, every.size)
+            got, want = (
+                seen_runs(edges, head, every, low, high),
+                seen_runs_reference(edges, head, every, low, high),
+            )
+            assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+            runs_cut += int(np.count_nonzero(want[1] - want[0] < high - low))
+            points = np.c_[rng.uniform(x0, x1, 40), rng.uniform(y0, y1, 40)]
+            mask = floor_hidden(edges, head, points)
+            assert np.array_equal(mask, floor_hidden_reference(edges, head, points))
+            hidden += int(mask.sum())
+    assert runs_cut > 0 and hidden > 0  # the poses do see parts hide one another

@@ -1,0 +1,157 @@
+"""The compiled loops of the surrogate's visibility sweep (:mod:`.surrogate_visibility`).
+
+Each loop has a NumPy reference there (``seen_runs_reference``, ``floor_hidden_reference``: the
+sight lines clipped to every part at once by ``clip_to_parts``) that a test holds it equal to,
+bit for bit. Per sight line, from the head ``(hx, hy)`` to a target stopped ``pull_back`` short
+of it, every part's footprint is clipped by Cyrus-Beck (``side_start``, ``side_normal``: each
+part's corners and outward side normals, padded by repeating the last), in the reference's
+arithmetic order. Frames and units: world metres, z up.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from modeling.jit import compiled_on_first_call
+
+__all__ = ["floor_hidden_loop", "seen_runs_loop"]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
+
+
+@compiled_on_first_call
+def seen_runs_loop(
+    hx: float,
+    hy: float,
+    hh: float,
+    targets: FloatArray,
+    own_part: IntArray,
+    low_in: FloatArray,
+    high_in: FloatArray,
+    side_start: FloatArray,
+    side_normal: FloatArray,
+    z_min: FloatArray,
+    z_max: FloatArray,
+    pull_back: float,
+) -> tuple[FloatArray, FloatArray]:
+    """``seen_runs_reference`` as loops: per edge, the sight line clipped to every part
+    (Cyrus-Beck, as ``clip_to_parts``), the hidden intervals, the longest run left."""
+    n = targets.shape[0]
+    n_parts, n_sides = side_start.shape[0], side_start.shape[1]
+    low, high = low_in.copy(), high_in.copy()
+    hide_lo = np.empty(n_parts)
+    hide_hi = np.empty(n_parts)
+    for i in range(n):
+        dx, dy = targets[i, 0] - hx, targets[i, 1] - hy
+        length = max(np.hypot(dx, dy), 1e-9)
+        sx = targets[i, 0] - dx * (pull_back / length)
+        sy = targets[i, 1] - dy * (pull_back / length)
+        stepx, stepy = sx - hx, sy - hy
+        scale = 1.0 - pull_back / length
+        k = 0
+        for p in range(n_parts):
+            t_enter, t_leave, outside = -np.inf, np.inf, False
+            for v in range(n_sides):
+                nx, ny = side_normal[p, v, 0], side_normal[p, v, 1]
+                num = nx * (side_start[p, v, 0] - hx) + ny * (side_start[p, v, 1] - hy)
+                den = nx * stepx + ny * stepy
+                if den == 0.0:
+                    if num < 0.0:
+                        outside = True
+                    continue
+                t = num / den
+                if den < 0.0:
+                    t_enter = max(t_enter, t)
+                else:
+                    t_leave = min(t_leave, t)
+            t0, t1 = max(t_enter, 0.0), min(t_leave, 1.0)
+            if outside or not t1 > t0:
+                continue
+            if p == own_part[i]:
+                hide_lo[k], hide_hi[k] = -np.inf, np.inf
+            else:
+                inv0 = 1.0 / max(t0 * scale, 1e-9)
+                inv1 = 1.0 / max(t1 * scale, 1e-9)
+                s0, s1 = z_min[p] - hh, z_max[p] - hh
+                c00, c01, c10, c11 = hh + s0 * inv0, hh + s0 * inv1, hh + s1 * inv0, hh + s1 * inv1
+                hide_lo[k] = min(min(c00, c01), min(c10, c11))
+                hide_hi[k] = max(max(c00, c01), max(c10, c11))
+            k += 1
+        if k == 1:
+            below_hi = min(hide_lo[0], high[i])
+            above_lo = max(hide_hi[0], low[i])
+            if not below_hi - low[i] >= high[i] - above_lo:
+                low[i] = above_lo
+            else:
+                high[i] = below_hi
+        elif k > 1:
+            # the intervals in order (of their low end, then high end), then the longest gap
+            for a in range(1, k):
+                lo_a, hi_a = hide_lo[a], hide_hi[a]
+                b = a - 1
+                while b >= 0 and (hide_lo[b] > lo_a or (hide_lo[b] == lo_a and hide_hi[b] > hi_a)):
+                    hide_lo[b + 1], hide_hi[b + 1] = hide_lo[b], hide_hi[b]
+                    b -= 1
+                hide_lo[b + 1], hide_hi[b + 1] = lo_a, hi_a
+            lo_i, hi_i = low[i], high[i]
+            best_lo, best_hi = lo_i, lo_i
+            cursor = lo_i
+            for a in range(k):
+                if hide_lo[a] > cursor and min(hide_lo[a], hi_i) - cursor > best_hi - best_lo:
+                    best_lo, best_hi = cursor, min(hide_lo[a], hi_i)
+                cursor = max(cursor, hide_hi[a])
+                if cursor >= hi_i:
+                    break
+            if hi_i - cursor > best_hi - best_lo:
+                best_lo, best_hi = cursor, hi_i
+            low[i], high[i] = best_lo, best_hi
+    return low, high
+
+
+@compiled_on_first_call
+def floor_hidden_loop(
+    hx: float,
+    hy: float,
+    hh: float,
+    targets: FloatArray,
+    side_start: FloatArray,
+    side_normal: FloatArray,
+    z_min: FloatArray,
+    z_max: FloatArray,
+    pull_back: float,
+) -> BoolArray:
+    """``floor_hidden_reference`` as loops (the clipping of :func:`seen_runs_loop`)."""
+    n = targets.shape[0]
+    n_parts, n_sides = side_start.shape[0], side_start.shape[1]
+    out = np.zeros(n, dtype=np.bool_)
+    for i in range(n):
+        dx, dy = targets[i, 0] - hx, targets[i, 1] - hy
+        length = max(np.hypot(dx, dy), 1e-9)
+        stepx = targets[i, 0] - dx * (pull_back / length) - hx
+        stepy = targets[i, 1] - dy * (pull_back / length) - hy
+        scale = 1.0 - pull_back / length
+        for p in range(n_parts):
+            t_enter, t_leave, outside = -np.inf, np.inf, False
+            for v in range(n_sides):
+                nx, ny = side_normal[p, v, 0], side_normal[p, v, 1]
+                num = nx * (side_start[p, v, 0] - hx) + ny * (side_start[p, v, 1] - hy)
+                den = nx * stepx + ny * stepy
+                if den == 0.0:
+                    if num < 0.0:
+                        outside = True
+                    continue
+                t = num / den
+                if den < 0.0:
+                    t_enter = max(t_enter, t)
+                else:
+                    t_leave = min(t_leave, t)
+            t0, t1 = max(t_enter, 0.0), min(t_leave, 1.0)
+            if outside or not t1 > t0:
+                continue
+            if hh * (1.0 - t0 * scale) > z_min[p] and hh * (1.0 - t1 * scale) < z_max[p]:
+                out[i] = True
+                break
+    return out
