@@ -13,13 +13,43 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling.jit import compiled_on_first_call
+from modeling.jit import compiled_helper, compiled_on_first_call
 
-__all__ = ["floor_hidden_loop", "seen_runs_loop"]
+__all__ = ["crossing", "floor_hidden_loop", "seen_runs_loop"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
+
+
+@compiled_helper
+def crossing(
+    ox: float,
+    oy: float,
+    stepx: float,
+    stepy: float,
+    side_start: FloatArray,
+    side_normal: FloatArray,
+    p: int,
+) -> tuple[float, float]:
+    """``(t0, t1)``: the fractions of the line from ``(ox, oy)`` along ``(stepx, stepy)`` between
+    which it is inside part ``p``'s footprint (Cyrus-Beck, in ``clip_to_parts``' arithmetic);
+    ``t1 <= t0`` where it misses the part."""
+    t_enter, t_leave = -np.inf, np.inf
+    for v in range(side_start.shape[1]):
+        nx, ny = side_normal[p, v, 0], side_normal[p, v, 1]
+        num = nx * (side_start[p, v, 0] - ox) + ny * (side_start[p, v, 1] - oy)
+        den = nx * stepx + ny * stepy
+        if den == 0.0:
+            if num < 0.0:
+                return 0.0, 0.0  # parallel to a side, outside it
+            continue
+        t = num / den
+        if den < 0.0:
+            t_enter = max(t_enter, t)
+        else:
+            t_leave = min(t_leave, t)
+    return max(t_enter, 0.0), min(t_leave, 1.0)
 
 
 @compiled_on_first_call
@@ -40,7 +70,7 @@ def seen_runs_loop(
     """``seen_runs_reference`` as loops: per edge, the sight line clipped to every part
     (Cyrus-Beck, as ``clip_to_parts``), the hidden intervals, the longest run left."""
     n = targets.shape[0]
-    n_parts, n_sides = side_start.shape[0], side_start.shape[1]
+    n_parts = side_start.shape[0]
     low, high = low_in.copy(), high_in.copy()
     hide_lo = np.empty(n_parts)
     hide_hi = np.empty(n_parts)
@@ -53,22 +83,8 @@ def seen_runs_loop(
         scale = 1.0 - pull_back / length
         k = 0
         for p in range(n_parts):
-            t_enter, t_leave, outside = -np.inf, np.inf, False
-            for v in range(n_sides):
-                nx, ny = side_normal[p, v, 0], side_normal[p, v, 1]
-                num = nx * (side_start[p, v, 0] - hx) + ny * (side_start[p, v, 1] - hy)
-                den = nx * stepx + ny * stepy
-                if den == 0.0:
-                    if num < 0.0:
-                        outside = True
-                    continue
-                t = num / den
-                if den < 0.0:
-                    t_enter = max(t_enter, t)
-                else:
-                    t_leave = min(t_leave, t)
-            t0, t1 = max(t_enter, 0.0), min(t_leave, 1.0)
-            if outside or not t1 > t0:
+            t0, t1 = crossing(hx, hy, stepx, stepy, side_start, side_normal, p)
+            if not t1 > t0:
                 continue
             if p == own_part[i]:
                 hide_lo[k], hide_hi[k] = -np.inf, np.inf
@@ -125,7 +141,7 @@ def floor_hidden_loop(
 ) -> BoolArray:
     """``floor_hidden_reference`` as loops (the clipping of :func:`seen_runs_loop`)."""
     n = targets.shape[0]
-    n_parts, n_sides = side_start.shape[0], side_start.shape[1]
+    n_parts = side_start.shape[0]
     out = np.zeros(n, dtype=np.bool_)
     for i in range(n):
         dx, dy = targets[i, 0] - hx, targets[i, 1] - hy
@@ -134,22 +150,8 @@ def floor_hidden_loop(
         stepy = targets[i, 1] - dy * (pull_back / length) - hy
         scale = 1.0 - pull_back / length
         for p in range(n_parts):
-            t_enter, t_leave, outside = -np.inf, np.inf, False
-            for v in range(n_sides):
-                nx, ny = side_normal[p, v, 0], side_normal[p, v, 1]
-                num = nx * (side_start[p, v, 0] - hx) + ny * (side_start[p, v, 1] - hy)
-                den = nx * stepx + ny * stepy
-                if den == 0.0:
-                    if num < 0.0:
-                        outside = True
-                    continue
-                t = num / den
-                if den < 0.0:
-                    t_enter = max(t_enter, t)
-                else:
-                    t_leave = min(t_leave, t)
-            t0, t1 = max(t_enter, 0.0), min(t_leave, 1.0)
-            if outside or not t1 > t0:
+            t0, t1 = crossing(hx, hy, stepx, stepy, side_start, side_normal, p)
+            if not t1 > t0:
                 continue
             if hh * (1.0 - t0 * scale) > z_min[p] and hh * (1.0 - t1 * scale) < z_max[p]:
                 out[i] = True
