@@ -14,11 +14,11 @@ Occlusion (the sweep). The sight line from the head (world ``(x, y)``, height ``
 of an edge at height ``z`` and floor distance ``D`` runs at height ``Hh + (z - Hh) t`` at the
 fraction ``t`` of ``D``. A part (footprint crossed by the line between ``t0`` and ``t1``, heights
 ``[s0, s1]``) hides the heights ``z = Hh + (s - Hh) / t`` for ``s`` in ``[s0, s1]`` and ``t`` in
-``[t0, t1]``: an interval whose ends are among its four corners. The lines are tested against all
-part footprints at once (:func:`clip_to_parts`: a ``shapely.STRtree`` query, then the vectorised
-Cyrus-Beck clipping, which the photometry's rays use too); a corner
-whose line passes through its own part (a back corner) is hidden whole. An edge keeps its longest
-visible run of heights.
+``[t0, t1]``: an interval whose ends are among its four corners. Each line is clipped to every
+part's footprint (Cyrus-Beck) in one compiled pass (:func:`seen_runs`, :func:`floor_hidden`); their
+NumPy references test all footprints at once (:func:`clip_to_parts`: a ``shapely.STRtree``
+query, then the vectorised clipping). A corner whose line passes through its own part (a back
+corner) is hidden whole. An edge keeps its longest visible run of heights.
 
 Frames and units: world metres, floor plane x-y, z up; image pixels (u right, v down, (0, 0) the
 centre of the top-left pixel); camera depth ``Z`` along the optical axis, ``X`` to the right.
