@@ -173,7 +173,9 @@ class ImageSegments:
     horizontal: FloatArray = field(default_factory=lambda: np.zeros((0, 2, 2)))
 
     def __post_init__(self) -> None:
-        ends = np.asarray(self.endpoints, dtype=np.float64)
+        # C-contiguous (a copy only of a strided view): the compiled loops that read these
+        # arrays then see one layout, and Numba compiles them once
+        ends = np.ascontiguousarray(self.endpoints, dtype=np.float64)
         if ends.ndim != 3 or ends.shape[1:] != (2, 2):
             raise ValueError(f"endpoints must have shape (n, 2, 2), got {ends.shape}")
         n = ends.shape[0]
@@ -183,13 +185,13 @@ class ImageSegments:
         if self.grey_right_near is None:
             object.__setattr__(self, "grey_right_near", self.grey_right)
         for name, dtype in _FIELDS:
-            arr: np.ndarray = np.asarray(getattr(self, name), dtype=dtype)
+            arr: np.ndarray = np.ascontiguousarray(getattr(self, name), dtype=dtype)
             if arr.shape != (n,):
                 raise ValueError(f"{name} must have shape ({n},), got {arr.shape}")
             object.__setattr__(self, name, _readonly(arr))
         if ends.size and np.any(ends[:, 0, 1] > ends[:, 1, 1]):
             raise ValueError("endpoints must be ordered top to bottom (v0 <= v1)")
-        hor = np.asarray(self.horizontal, dtype=np.float64)
+        hor = np.ascontiguousarray(self.horizontal, dtype=np.float64)
         if hor.ndim != 3 or hor.shape[1:] != (2, 2):
             raise ValueError(f"horizontal must have shape (k, 2, 2), got {hor.shape}")
         object.__setattr__(self, "horizontal", _readonly(hor))

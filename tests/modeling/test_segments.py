@@ -245,6 +245,38 @@ def test_constructor_defaults_and_read_only_arrays() -> None:
     assert not extracted.endpoints.flags.writeable and not extracted.grey_left_near.flags.writeable
 
 
+def test_strided_columns_are_stored_contiguous() -> None:
+    """Columns given as strided views (rows of a column-major block, as the surrogate's greys
+    are) are stored C-contiguous: the matcher's compiled loop sees one layout, so Numba
+    compiles it once instead of again (10 ms) at the first view whose arrays are strided."""
+    n = 3
+    block = np.asfortranarray(np.arange(4.0 * n).reshape(4, n) + 1.0)  # rows are strided
+    assert not block[0].flags.c_contiguous
+    ones = np.ones(n)
+    segs = ImageSegments(
+        endpoints=np.tile([[10.0, 5.0], [10.0, 45.0]], (n, 1, 1)),
+        u_center=10 * ones,
+        v_center=25 * ones,
+        slope=block[1],
+        point_var=0.25 * ones,
+        n_points=[40] * n,
+        s_vv=5000 * ones,
+        bias_var=0.01 * ones,
+        polarity=[1] * n,
+        contrast=30 * ones,
+        grey_left=block[0],
+        grey_right=block[1],
+        grey_left_near=block[2],
+        grey_right_near=block[3],
+        image_shape=(240, 320),
+    )
+    for name in ("slope", "grey_left", "grey_right", "grey_left_near", "grey_right_near"):
+        arr = getattr(segs, name)
+        assert arr.flags.c_contiguous, name
+        assert not arr.flags.writeable, name
+    np.testing.assert_array_equal(segs.grey_right_near, block[3])
+
+
 def _fields(segs: ImageSegments) -> dict[str, object]:
     names = ImageSegments.__dataclass_fields__
     return {name: getattr(segs, name) for name in names}
