@@ -32,6 +32,7 @@ __all__ = [
     "control_limits",
     "goal_xy",
     "is_look",
+    "memory_model_of",
     "model_of",
     "robot_pose",
     "room_bounds",
@@ -183,4 +184,19 @@ def model_of(env: Any, info: dict[str, Any]) -> EnvironmentModel:
     model = info.get("model")
     if not isinstance(model, EnvironmentModel):
         raise ValueError(f"info['model'] must be an EnvironmentModel, got {type(model).__name__}")
+    return model
+
+
+def memory_model_of(info: dict[str, Any]) -> EnvironmentModel | None:
+    """The fused model of the episode so far, ``info["memory_model"]``, or ``None`` when the env
+    keeps no memory (``memory=False``).
+
+    Raises:
+        ValueError: When ``info["memory_model"]`` is neither ``None`` nor an EnvironmentModel.
+    """
+    model = info.get("memory_model")
+    if model is not None and not isinstance(model, EnvironmentModel):
+        raise ValueError(
+            f"info['memory_model'] must be an EnvironmentModel or None, got {type(model).__name__}"
+        )
     return model

@@ -60,6 +60,11 @@ class NavigatorConfig:
             (a route that first steps back to a cell behind the robot and then passes it again).
         gaze_ahead_m: The planner, when not looking at a gate, points its head at the route
             this far ahead (0: straight ahead). Greedy and cautious always look straight ahead.
+        fused_range_m: Obstacles of the env's fused memory model (``info["memory_model"]``,
+            its most probable situation) within this distance of the head are added to the
+            map with every observation (0, the default: the views' models alone; nothing
+            either when the env keeps no memory). Off by default: on the suite it cut
+            collisions but closed narrow passages (``docs/evaluation.md`` has the figures).
     """
 
     policy: Policy = Policy.PLANNER
@@ -88,6 +93,7 @@ class NavigatorConfig:
     relax_keep_steps: int = 30
     shortcut_m: float = 0.15
     gaze_ahead_m: float = 1.0
+    fused_range_m: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "policy", Policy(self.policy))
@@ -96,3 +102,4 @@ class NavigatorConfig:
         number(self.eps, "eps", low=0.0, high=0.5)
         integer(self.max_situations, "max_situations", low=1)
         integer(self.replan_every, "replan_every", low=1)
+        positive(self.fused_range_m, "fused_range_m", allow_zero=True)

@@ -22,7 +22,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.base import Agent, control_limits, goal_xy, model_of, robot_pose, room_bounds
+from agents.base import (
+    Agent,
+    control_limits,
+    goal_xy,
+    memory_model_of,
+    model_of,
+    robot_pose,
+    room_bounds,
+)
 from agents.config import NavigatorConfig, Policy
 from agents.follower import PathFollower, RouteDriver
 from agents.planner import Decision, Mode, PlannerCore
@@ -87,7 +95,7 @@ class ModelBasedAgent(Agent):
         cfg, core, recovery = self.config, self.core, self._recovery
         pose = robot_pose(self.env)
         x, y, heading, _ = pose
-        core.observe(model_of(self.env, info), self.steps)
+        core.observe(model_of(self.env, info), self.steps, fused=memory_model_of(info))
         replan = self.decision is None or self._since_plan >= cfg.replan_every
         events = recovery.update(
             (x, y, heading),

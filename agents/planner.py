@@ -158,7 +158,7 @@ class PlannerCore:
         self.limits = limits
         self.goal = np.asarray(goal, dtype=np.float64).reshape(2)
         self.spec = GridSpec.from_bounds(bounds, self.config.resolution_m)
-        self.memory = OccupancyMemory(self.spec)
+        self.memory = OccupancyMemory(self.spec, fused_range_m=self.config.fused_range_m)
         self.gates = GateMemory()
         self.looks_at: dict[int, int] = {}
         self.model: EnvironmentModel | None = None
@@ -171,12 +171,15 @@ class PlannerCore:
         return self.limits.robot_width_m
 
     # ------------------------------------------------------------------ memory
-    def observe(self, model: EnvironmentModel | None, step: int) -> None:
-        """Fuse the model of the latest observation into the memory."""
+    def observe(
+        self, model: EnvironmentModel | None, step: int, fused: EnvironmentModel | None = None
+    ) -> None:
+        """Fuse the model of the latest observation (and the nearby obstacles of ``fused``, the
+        env's memory model, when given) into the memory."""
         self.model = model
         if model is None:
             return
-        self.memory.update(model, max_situations=self.config.max_situations)
+        self.memory.update(model, max_situations=self.config.max_situations, fused=fused)
         self.gates.update(model, step)
 
     def bump(

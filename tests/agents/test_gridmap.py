@@ -43,6 +43,31 @@ def test_occupancy_fuses_hits_and_clears_what_it_sees_free() -> None:
     assert not _at(spec, memory.occupied(), 2.5, 2.0)  # seen free three times
 
 
+def test_the_fused_models_nearby_obstacles_enter_the_map_only_when_asked() -> None:
+    """The memory model's obstacles within ``fused_range_m`` of the head count as seen in a view
+    that shows nothing (an empty model); farther ones, and any with the option at 0, do not."""
+    spec = GridSpec.from_bounds((0.0, 0.0, 6.0, 4.0), 0.1)
+    empty = model_of([], (0.5, 2.0, 0.0))
+    fused = model_of(wall_segments(2.0, [(1.5, 2.5)], 0.02), (0.0, 2.0, 0.0))
+    far = model_of(wall_segments(4.0, [(1.5, 2.5)], 0.02), (0.0, 2.0, 0.0))
+    on = OccupancyMemory(spec, fused_range_m=1.8)
+    on.update(empty, fused=fused)
+    assert _at(spec, on.occupied(), 2.0, 2.0)  # 1.5 m from the viewpoint at x = 0.5
+    on.update(empty, fused=far)  # 3.5 m away: left out
+    assert not _at(spec, on.occupied(), 4.0, 2.0)
+    for memory in (OccupancyMemory(spec), OccupancyMemory(spec, fused_range_m=1.8)):
+        memory.update(empty, fused=fused if memory.fused_range_m == 0.0 else None)
+        assert not memory.occupied()[1:-1, 1:-1].any()
+
+
+def test_a_wrong_memory_model_is_refused_by_name() -> None:
+    from agents.base import memory_model_of
+
+    assert memory_model_of({}) is None and memory_model_of({"memory_model": None}) is None
+    with pytest.raises(ValueError, match=r"info\['memory_model'\] must be an EnvironmentModel"):
+        memory_model_of({"memory_model": "a map"})
+
+
 def test_bumps_are_forgotten_but_the_border_is_not() -> None:
     spec = GridSpec.from_bounds((0.0, 0.0, 4.0, 4.0), 0.1)
     memory = OccupancyMemory(spec)
