@@ -9,7 +9,12 @@ kind touched (the true obstacle nearest the robot's centre), the action that led
 pan, the contact's bearing from the body heading and in how many earlier steps the contact point
 lay in the field of view beyond the blind band (``EnvConfig.blind_range_m``) and within
 ``--view-range`` metres: a contact point often in view was something the model could have shown.
-Prints counts by family and kind; the JSON has every collision step.
+For the model-based agents (``greedy``, ``cautious``, ``planner``) also what their occupancy map
+(:class:`agents.gridmap.OccupancyMemory`) knew of the contact point: ``held_before`` (a cell
+within 0.2 m of it counted as an obstacle just before the step) and ``ever_held`` (one had had
+positive log-odds at some earlier step of the episode: held, then cleared, when not
+``held_before``). Prints counts by family and kind, and of the first contacts (no contact in
+the 10 steps before) how many the map had ever held; the JSON has every collision step.
 """
 
 from __future__ import annotations
@@ -52,6 +57,13 @@ def _views_of(
     return int(np.count_nonzero((bearing < half_fov) & (r > band[0]) & (r < band[1])))
 
 
+def _cells_near(spec: Any, point: np.ndarray, radius_m: float) -> np.ndarray:
+    """(ny, nx) the cells of grid ``spec`` whose centres lie within ``radius_m`` of ``point``."""
+    X, Y = spec.centers()
+    near: np.ndarray = np.hypot(X - point[0], Y - point[1]) <= radius_m
+    return near
+
+
 def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     """Parse the arguments, run the suite, print and write the contacts."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -62,10 +74,13 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     parser.add_argument("--max-steps", type=int, default=500, help="steps at most per episode")
     parser.add_argument("--view-range", type=float, default=6.0, help="metres (see above)")
     parser.add_argument("--json", type=pathlib.Path, help="every contact as JSON")
+    parser.add_argument(
+        "--perception", choices=("stereo", "surrogate"), default="stereo", help="the perception"
+    )
     args = parser.parse_args(argv)
     suite_args = ["--agent", args.agent, "--json", "-"]
     suite_args += ["--episodes", str(args.episodes), "--seed", str(args.seed)]
-    suite_args += ["--max-steps", str(args.max_steps)]
+    suite_args += ["--max-steps", str(args.max_steps), "--perception", args.perception]
     cfg = suite_config(suite_args + (["--families", *args.families] if args.families else []))
 
     contacts: list[dict[str, Any]] = []
@@ -81,9 +96,15 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
         band = (base.config.blind_range_m, args.view_range)
         outlines = [(o.kind.value, shapely.Polygon(o.footprint)) for o in base.scene.obstacles]
         poses: list[tuple[float, float, float]] = []
+        most: np.ndarray | None = None  # the highest log-odds of each cell so far
         for step in range(cfg.max_steps):
             state = world.state
             poses.append((state.x_m, state.y_m, state.heading_rad + state.pan_rad))
+            core = getattr(agent, "core", None)
+            occupied = None if core is None else core.memory.occupied()
+            if core is not None:
+                lo = core.memory.log_odds
+                most = lo.copy() if most is None else np.maximum(most, lo)
             action = agent.act(obs, info)
             obs, _, terminated, truncated, info = env.step(action)
             if not info.get("collision", False):
@@ -108,6 +129,10 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
                     "views_in_range": _views_of(point, poses, half_fov, band),
                 }
             )
+            if core is not None and occupied is not None and most is not None:
+                near = _cells_near(core.spec, point, 0.2)
+                contacts[-1]["held_before"] = bool(occupied[near].any())
+                contacts[-1]["ever_held"] = bool((most[near] > 0.0).any())
             if terminated or truncated:
                 break
         agent.close()
@@ -120,6 +145,22 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     never = sum(c["views_in_range"] == 0 for c in contacts)
     ahead = sum(abs(c["bearing_rad"]) < math.radians(20.0) for c in contacts)
     print(f"  never in view beyond the blind band: {never}; within 20 deg of the heading: {ahead}")
+    first = [
+        c
+        for k, c in enumerate(contacts)
+        if not (
+            k
+            and contacts[k - 1]["episode"] == c["episode"]
+            and c["step"] - contacts[k - 1]["step"] <= 10
+        )
+    ]
+    if first and "ever_held" in first[0]:
+        ever = sum(c["ever_held"] for c in first)
+        before = sum(c["held_before"] for c in first)
+        print(
+            f"  first contacts {len(first)}: the map ever held {ever} "
+            f"(held just before {before}), never held {len(first) - ever}"
+        )
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(contacts, indent=1) + "\n")

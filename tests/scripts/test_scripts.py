@@ -166,4 +166,8 @@ def test_collision_report_records_each_contact_with_the_obstacle_hit(
     assert json.loads(out.read_text()) == contacts
     assert [(c["step"], c["kind"], c["family"]) for c in contacts] == [(109, "table", "room")]
     assert contacts[0]["views_in_range"] > 0
-    assert "1 contacts in 1 episodes (planner)" in capsys.readouterr().out
+    # in view 31 times, yet the planner's map never held the leg: what the report counts
+    assert contacts[0]["held_before"] is False and contacts[0]["ever_held"] is False
+    printed = capsys.readouterr().out
+    assert "1 contacts in 1 episodes (planner)" in printed
+    assert "first contacts 1: the map ever held 0 (held just before 0), never held 1" in printed
