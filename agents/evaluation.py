@@ -109,6 +109,9 @@ class SuiteConfig:
         families: Scene families, cycled (see ``stereo_nav_env.scenes.FAMILIES``).
         max_steps: Steps at most per episode.
         env_kwargs: Keyword arguments of ``gym.make(ENV_ID, ...)`` besides ``scenario``.
+        navigator: Fields of :class:`~agents.config.NavigatorConfig` for the model-based agents
+            (``greedy``, ``cautious``, ``planner``; the others take none), e.g.
+            ``{"fused_range_m": 1.8}``.
     """
 
     episodes: int = 32
@@ -116,9 +119,14 @@ class SuiteConfig:
     families: tuple[str, ...] = ("room", "corridor", "cluttered", "office")
     max_steps: int = 500
     env_kwargs: dict[str, Any] = field(default_factory=lambda: {"diagnostics": False})
+    navigator: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        from agents.config import NavigatorConfig
+        from modeling.validation import with_overrides
         from stereo_nav_env.scenes import FAMILIES
+
+        with_overrides(None, NavigatorConfig, self.navigator)  # names a bad field or value
 
         for name in ("episodes", "max_steps"):
             value = getattr(self, name)
@@ -222,16 +230,22 @@ def suite_episodes(cfg: SuiteConfig) -> list[EpisodeSpec]:
     ]
 
 
-_AGENTS: dict[str, Any] = {}
+_AGENTS: dict[tuple[str, tuple[tuple[str, Any], ...]], Any] = {}
 
 
-def _agent(name: str) -> Any:
-    """One agent per name and process (a PPO model is loaded once)."""
+_MODEL_BASED = ("greedy", "cautious", "planner")
+
+
+def _agent(name: str, navigator: Mapping[str, Any]) -> Any:
+    """One agent per name (and navigator settings) and process (a PPO model is loaded once)."""
     from agents import make_agent
+    from agents.config import NavigatorConfig
 
-    if name not in _AGENTS:
-        _AGENTS[name] = make_agent(name)
-    return _AGENTS[name]
+    key = (name, tuple(sorted(navigator.items())))
+    if key not in _AGENTS:
+        kwargs = {"config": NavigatorConfig(**navigator)} if name in _MODEL_BASED else {}
+        _AGENTS[key] = make_agent(name, **kwargs)
+    return _AGENTS[key]
 
 
 def run_episode(agent_name: str, spec: EpisodeSpec, cfg: SuiteConfig) -> EpisodeResult:
@@ -244,7 +258,7 @@ def run_episode(agent_name: str, spec: EpisodeSpec, cfg: SuiteConfig) -> Episode
     from agents.scripted import true_shortest_route
 
     env = gym.make(ENV_ID, scenario=spec.family, **cfg.env_kwargs)
-    agent = _agent(agent_name)
+    agent = _agent(agent_name, cfg.navigator)
     t0 = time.perf_counter()
     try:
         obs, info = env.reset(seed=spec.seed)

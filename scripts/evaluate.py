@@ -66,6 +66,13 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
         default=None,
         help="head tilt below the horizon, radians (the camera's tilt_rad; default: the env's)",
     )
+    parser.add_argument(
+        "--fused-range",
+        type=float,
+        default=0.0,
+        help="the model-based agents add the env's fused memory's obstacles within this many "
+        "metres (NavigatorConfig.fused_range_m; turns the env's memory on; default 0: off)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
 
@@ -75,9 +82,14 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
         episodes=args.episodes,
         seed=args.seed,
         max_steps=args.max_steps,
-        env_kwargs={"diagnostics": False, "memory": False, "perception": args.perception}
+        env_kwargs={
+            "diagnostics": False,
+            "memory": args.fused_range > 0.0,
+            "perception": args.perception,
+        }
         | ({"terminate_on_collision": True} if args.terminate_on_collision else {})
         | ({"camera": {"tilt_rad": args.tilt}} if args.tilt is not None else {}),
+        navigator={"fused_range_m": args.fused_range} if args.fused_range > 0.0 else {},
         **kw,
     )
     return args, cfg

@@ -37,6 +37,34 @@ def test_suite_config_rejects_bad_values() -> None:
         SuiteConfig(families=("kitchen",))
     with pytest.raises(ValueError, match="env_kwargs must not hold 'scenario'"):
         SuiteConfig(env_kwargs={"scenario": "room"})
+    with pytest.raises(ValueError, match=r"unknown NavigatorConfig option\(s\) \['fused'\]"):
+        SuiteConfig(navigator={"fused": 1.8})
+    with pytest.raises(ValueError, match="fused_range_m"):
+        SuiteConfig(navigator={"fused_range_m": -1.0})
+
+
+def test_navigator_settings_reach_the_model_based_agents_only() -> None:
+    from agents.evaluation import _agent
+
+    planner = _agent("planner", {"fused_range_m": 1.8})
+    assert planner.config.fused_range_m == 1.8 and planner.config.policy.value == "planner"
+    assert _agent("planner", {}).config.fused_range_m == 0.0  # another agent, the defaults
+    assert _agent("planner", {"fused_range_m": 1.8}) is planner  # one per settings and process
+    assert type(_agent("oracle", {"fused_range_m": 1.8})).__name__ == "OracleAgent"
+
+
+def test_evaluate_cli_fused_range_turns_the_memory_on(monkeypatch: pytest.MonkeyPatch) -> None:
+    import pathlib
+    import sys
+
+    monkeypatch.syspath_prepend(str(pathlib.Path(__file__).resolve().parents[2] / "scripts"))
+    sys.modules.pop("evaluate", None)
+    from evaluate import suite_config
+
+    off = suite_config(["--agent", "planner", "--json", "-"])
+    assert off.env_kwargs["memory"] is False and off.navigator == {}
+    on = suite_config(["--agent", "planner", "--json", "-", "--fused-range", "1.8"])
+    assert on.env_kwargs["memory"] is True and on.navigator == {"fused_range_m": 1.8}
 
 
 def test_oracle_episode_succeeds_with_spl_near_one() -> None:
