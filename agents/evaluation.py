@@ -233,17 +233,15 @@ def suite_episodes(cfg: SuiteConfig) -> list[EpisodeSpec]:
 _AGENTS: dict[tuple[str, tuple[tuple[str, Any], ...]], Any] = {}
 
 
-_MODEL_BASED = ("greedy", "cautious", "planner")
-
-
 def _agent(name: str, navigator: Mapping[str, Any]) -> Any:
     """One agent per name (and navigator settings) and process (a PPO model is loaded once)."""
     from agents import make_agent
-    from agents.config import NavigatorConfig
+    from agents.config import NavigatorConfig, Policy
 
     key = (name, tuple(sorted(navigator.items())))
     if key not in _AGENTS:
-        kwargs = {"config": NavigatorConfig(**navigator)} if name in _MODEL_BASED else {}
+        model_based = name in {p.value for p in Policy}  # greedy, cautious, planner
+        kwargs = {"config": NavigatorConfig(**navigator)} if model_based else {}
         _AGENTS[key] = make_agent(name, **kwargs)
     return _AGENTS[key]
 
