@@ -1,8 +1,8 @@
 """The compiled loops of the surrogate's visibility sweep (:mod:`.surrogate_visibility`).
 
 Each loop has a NumPy reference there (``seen_runs_reference``, ``floor_hidden_reference``: the
-sight lines clipped to every part at once by ``clip_to_parts``) that a test holds it equal to,
-bit for bit. Per sight line, from the head ``(hx, hy)`` to a target stopped ``pull_back`` short
+sight lines clipped to every part at once by ``clip_to_parts``; ``visible_floor_lines_reference``)
+that a test holds it equal to, bit for bit. Per sight line, from the head ``(hx, hy)`` to a target stopped ``pull_back`` short
 of it, every part's footprint is clipped by Cyrus-Beck (``side_start``, ``side_normal``: each
 part's corners and outward side normals, padded by repeating the last), in the reference's
 arithmetic order. Frames and units: world metres, z up.
@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from modeling.jit import compiled_helper, compiled_on_first_call
 
-__all__ = ["crossing", "floor_hidden_loop", "seen_runs_loop"]
+__all__ = ["crossing", "floor_hidden_loop", "floor_lines_loop", "seen_runs_loop"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -127,6 +127,35 @@ def seen_runs_loop(
     return low, high
 
 
+@compiled_helper
+def point_hidden(
+    hx: float,
+    hy: float,
+    hh: float,
+    tx: float,
+    ty: float,
+    side_start: FloatArray,
+    side_normal: FloatArray,
+    z_min: FloatArray,
+    z_max: FloatArray,
+    pull_back: float,
+) -> bool:
+    """Whether a part hides the floor point ``(tx, ty)`` from the head (``floor_hidden_reference``
+    for one point)."""
+    dx, dy = tx - hx, ty - hy
+    length = max(np.hypot(dx, dy), 1e-9)
+    stepx = tx - dx * (pull_back / length) - hx
+    stepy = ty - dy * (pull_back / length) - hy
+    scale = 1.0 - pull_back / length
+    for p in range(side_start.shape[0]):
+        t0, t1 = crossing(hx, hy, stepx, stepy, side_start, side_normal, p)
+        if not t1 > t0:
+            continue
+        if hh * (1.0 - t0 * scale) > z_min[p] and hh * (1.0 - t1 * scale) < z_max[p]:
+            return True
+    return False
+
+
 @compiled_on_first_call
 def floor_hidden_loop(
     hx: float,
@@ -141,19 +170,101 @@ def floor_hidden_loop(
 ) -> BoolArray:
     """``floor_hidden_reference`` as loops (the clipping of :func:`seen_runs_loop`)."""
     n = targets.shape[0]
-    n_parts = side_start.shape[0]
     out = np.zeros(n, dtype=np.bool_)
     for i in range(n):
-        dx, dy = targets[i, 0] - hx, targets[i, 1] - hy
-        length = max(np.hypot(dx, dy), 1e-9)
-        stepx = targets[i, 0] - dx * (pull_back / length) - hx
-        stepy = targets[i, 1] - dy * (pull_back / length) - hy
-        scale = 1.0 - pull_back / length
-        for p in range(n_parts):
-            t0, t1 = crossing(hx, hy, stepx, stepy, side_start, side_normal, p)
-            if not t1 > t0:
-                continue
-            if hh * (1.0 - t0 * scale) > z_min[p] and hh * (1.0 - t1 * scale) < z_max[p]:
-                out[i] = True
-                break
+        out[i] = point_hidden(
+            hx,
+            hy,
+            hh,
+            targets[i, 0],
+            targets[i, 1],
+            side_start,
+            side_normal,
+            z_min,
+            z_max,
+            pull_back,
+        )
     return out
+
+
+@compiled_on_first_call
+def floor_lines_loop(
+    head: FloatArray,
+    camera: FloatArray,
+    line_ends: FloatArray,
+    line_normal: FloatArray,
+    seen_xy: FloatArray,
+    samples: int,
+    max_range_m: float,
+    side_start: FloatArray,
+    side_normal: FloatArray,
+    z_min: FloatArray,
+    z_max: FloatArray,
+    pull_back: float,
+) -> FloatArray:
+    """``visible_floor_lines_reference`` as loops, in its arithmetic order.
+
+    ``head``: ``(x, y, height, cos heading, sin heading)``; ``camera``: ``(focal, cx, cy, fb,
+    min depth, max depth, width, height)`` of the rig, px and metres. Returns the (k, 2, 2)
+    image lines."""
+    hx, hy, hh, c, s = head[0], head[1], head[2], head[3], head[4]
+    f, cx, cy, fb = camera[0], camera[1], camera[2], camera[3]
+    z_lo, z_hi, width, height = camera[4], camera[5], camera[6], camera[7]
+    lo, hi = 1.0 - 0.5, width - 0.5 - 1.0  # both images' columns, a pixel inside
+    n_lines = line_ends.shape[0]
+    out = np.empty((n_lines * ((samples + 1) // 2), 2, 2))
+    seen = np.zeros(samples + 1, dtype=np.bool_)
+    k = 0
+    half = 0.5 / samples
+    for li in range(n_lines):
+        ax, ay = line_ends[li, 0, 0], line_ends[li, 0, 1]
+        bx, by = line_ends[li, 1, 0], line_ends[li, 1, 1]
+        mx, my = (ax + bx) / 2.0, (ay + by) / 2.0
+        if not np.hypot(mx - hx, my - hy) <= max_range_m:
+            continue
+        if not line_normal[li, 0] * (hx - mx) + line_normal[li, 1] * (hy - my) > 0.0:
+            continue
+        joined = True
+        for e in range(2):
+            ex, ey = line_ends[li, e, 0], line_ends[li, e, 1]
+            best = np.inf
+            for q in range(seen_xy.shape[0]):
+                gx, gy = ex - seen_xy[q, 0], ey - seen_xy[q, 1]
+                best = min(best, gx * gx + gy * gy)
+            if not best <= 0.02**2:
+                joined = False
+        if not joined:
+            continue
+        abx, aby = bx - ax, by - ay
+        for j in range(samples):
+            t = (j + 0.5) / samples
+            px, py = ax + t * abx, ay + t * aby
+            dx, dy = px - hx, py - hy
+            X, Z = s * dx - c * dy, c * dx + s * dy
+            ok = Z >= z_lo and Z <= z_hi
+            Zs = Z if ok else 1.0
+            u = cx + f * X / Zs
+            u_right = u - fb / Zs
+            ok = ok and u >= lo and u <= hi and u_right >= lo and u_right <= hi
+            ok = ok and cy + f * hh / (Z if Z > 0 else 1.0) <= height - 1.0
+            seen[j] = ok and not point_hidden(
+                hx, hy, hh, px, py, side_start, side_normal, z_min, z_max, pull_back
+            )
+        first = -1
+        for j in range(samples):
+            if seen[j] and first < 0:
+                first = j
+            if seen[j] and not seen[j + 1]:  # seen[samples] stays False
+                for m in range(2):
+                    tt = (first + 0.5) / samples - half if m == 0 else (j + 0.5) / samples + half
+                    ex, ey = ax + tt * abx, ay + tt * aby
+                    dx, dy = ex - hx, ey - hy
+                    Xe, Ze = s * dx - c * dy, max(c * dx + s * dy, 1e-6)
+                    out[k, m, 0] = cx + f * Xe / Ze
+                    out[k, m, 1] = cy + f * hh / Ze
+                if out[k, 0, 0] > out[k, 1, 0]:
+                    for d in range(2):
+                        out[k, 0, d], out[k, 1, d] = out[k, 1, d], out[k, 0, d]
+                k += 1
+                first = -1
+    return out[:k].copy()

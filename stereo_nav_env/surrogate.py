@@ -58,6 +58,7 @@ from numpy.typing import NDArray
 
 from modeling.faces import FaceOptions
 from modeling.faces import close_faces as close_faces_of
+from modeling.jit import compiled_on_first_call
 from modeling.matching import match_segments
 from modeling.model import build_model
 from modeling.rig import HeadPose, StereoRig
@@ -80,6 +81,8 @@ __all__ = [
     "default_rates",
     "edge_classes",
     "perceive_surrogate",
+    "piece_fits",
+    "piece_fits_reference",
     "surrogate_segments",
 ]
 
@@ -203,6 +206,70 @@ def default_rates() -> SurrogateRates:
     return SurrogateRates.from_dict(json.loads(text))
 
 
+PieceFits = tuple[
+    FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, IntArray, FloatArray, FloatArray
+]
+"""The fitted lines of :func:`piece_fits`: ``(endpoints, u_center, v_center, slope, point_var,
+n_points, s_vv, bias_var)`` as :class:`~modeling.segments.ImageSegments` holds them."""
+
+
+def piece_fits_reference(
+    top: FloatArray,
+    bottom: FloatArray,
+    centre: FloatArray,
+    draw: FloatArray,
+    point_var_px2: float,
+    bias_var_px2: float,
+) -> PieceFits:
+    """The least-squares fits of pieces spanning rows ``top`` to ``bottom`` (m,) of edges at
+    columns ``centre`` (m,), with the errors ``draw`` (3, m: the offset's, the slope's and the
+    bias's standard-normal draws, already scaled): a fit of ``n`` rows with per-point variance
+    ``point_var_px2`` has offset ``N(0, s^2 / n)`` and slope ``N(0, s^2 / S_vv)``, plus the
+    common bias ``N(0, bias_var_px2)``."""
+    m = top.shape[0]
+    n_rows = np.floor(bottom - top) + 1.0
+    s_vv = n_rows * (n_rows * n_rows - 1.0) / 12.0
+    point_var = np.full(m, point_var_px2)
+    bias_var = np.full(m, bias_var_px2)
+    offset = draw[0] * np.sqrt(point_var / n_rows) + draw[2] * np.sqrt(bias_var)
+    slope = draw[1] * np.sqrt(point_var / s_vv)
+    v_c = 0.5 * (top + bottom)
+    u_c = centre + offset
+    ends_v = np.stack([top, bottom], axis=1)
+    ends = np.stack([u_c[:, None] + slope[:, None] * (ends_v - v_c[:, None]), ends_v], -1)
+    return ends, u_c, v_c, slope, point_var, n_rows.astype(np.int64), s_vv, bias_var
+
+
+@compiled_on_first_call
+def piece_fits(
+    top: FloatArray,
+    bottom: FloatArray,
+    centre: FloatArray,
+    draw: FloatArray,
+    point_var_px2: float,
+    bias_var_px2: float,
+) -> PieceFits:
+    """:func:`piece_fits_reference` in one compiled loop (a test holds them equal, bit for bit)."""
+    m = top.shape[0]
+    ends = np.empty((m, 2, 2))
+    u_c, v_c, slope, s_vv = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
+    n_points = np.empty(m, dtype=np.int64)
+    for i in range(m):
+        n_rows = np.floor(bottom[i] - top[i]) + 1.0
+        s_vv[i] = n_rows * (n_rows * n_rows - 1.0) / 12.0
+        offset = draw[0, i] * np.sqrt(point_var_px2 / n_rows) + draw[2, i] * np.sqrt(bias_var_px2)
+        slope[i] = draw[1, i] * np.sqrt(point_var_px2 / s_vv[i])
+        v_c[i] = 0.5 * (top[i] + bottom[i])
+        u_c[i] = centre[i] + offset
+        ends[i, 0, 0] = u_c[i] + slope[i] * (top[i] - v_c[i])
+        ends[i, 0, 1] = top[i]
+        ends[i, 1, 0] = u_c[i] + slope[i] * (bottom[i] - v_c[i])
+        ends[i, 1, 1] = bottom[i]
+        n_points[i] = np.int64(n_rows)
+    point_var, bias_var = np.full(m, point_var_px2), np.full(m, bias_var_px2)
+    return ends, u_c, v_c, slope, point_var, n_points, s_vv, bias_var
+
+
 def surrogate_segments(
     edges: SceneEdges,
     rig: StereoRig,
@@ -245,31 +312,26 @@ def surrogate_segments(
         """The segments of image ``k`` (0 left, 1 right): the pieces of the edges it images."""
         pieces = pieces_of[k]
         r = np.flatnonzero(in_image[k, pieces.edge])
-        e = pieces.edge[r]
-        top, bottom = pieces.v_top[r], pieces.v_bottom[r]
-        m = r.size
-        n_rows = np.floor(bottom - top) + 1.0
-        s_vv = n_rows * (n_rows * n_rows - 1.0) / 12.0
-        point_var = np.full(m, rig.sigma_px**2)
-        bias_var = np.full(m, opts.bias_sigma_px**2)
         # the fitted line's errors: offset, slope, common bias
-        draw = rng.standard_normal((3, m)) * rates.error_scale
-        offset = draw[0] * np.sqrt(point_var / n_rows) + draw[2] * np.sqrt(bias_var)
-        slope = draw[1] * np.sqrt(point_var / s_vv)
-        v_c = 0.5 * (top + bottom)
-        u_c = centre[k, e] + offset
-        ends_v = np.stack([top, bottom], axis=1)
-        ends = np.stack([u_c[:, None] + slope[:, None] * (ends_v - v_c[:, None]), ends_v], -1)
+        draw = rng.standard_normal((3, r.size)) * rates.error_scale
+        fit = piece_fits(
+            pieces.v_top[r],
+            pieces.v_bottom[r],
+            centre[k, pieces.edge[r]],
+            draw,
+            rig.sigma_px**2,
+            opts.bias_sigma_px**2,
+        )
         g = pieces.greys[:, r]
         return ImageSegments(
-            endpoints=ends,
-            u_center=u_c,
-            v_center=v_c,
-            slope=slope,
-            point_var=point_var,
-            n_points=n_rows.astype(np.int64),
-            s_vv=s_vv,
-            bias_var=bias_var,
+            endpoints=fit[0],
+            u_center=fit[1],
+            v_center=fit[2],
+            slope=fit[3],
+            point_var=fit[4],
+            n_points=fit[5],
+            s_vv=fit[6],
+            bias_var=fit[7],
             polarity=pieces.polarity[r],
             contrast=np.abs(g[3] - g[2]) / (2.0 * opts.near_px),
             grey_left=g[0],

@@ -34,7 +34,7 @@ import shapely
 from numpy.typing import NDArray
 
 from modeling.rig import HeadPose, StereoRig
-from stereo_nav_env._visibility_loops import floor_hidden_loop, seen_runs_loop
+from stereo_nav_env._visibility_loops import floor_hidden_loop, floor_lines_loop, seen_runs_loop
 from stereo_nav_env.scenes import ObstacleKind, Scene
 from stereo_nav_env.shading import (
     BACKGROUND_COLOR,
@@ -56,6 +56,7 @@ __all__ = [
     "seen_runs_reference",
     "visible_edges",
     "visible_floor_lines",
+    "visible_floor_lines_reference",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -471,7 +472,7 @@ def floor_hidden(edges: SceneEdges, head: HeadPose, points: FloatArray) -> BoolA
     )
 
 
-def visible_floor_lines(
+def visible_floor_lines_reference(
     edges: SceneEdges,
     head: HeadPose,
     rig: StereoRig,
@@ -530,3 +531,52 @@ def visible_floor_lines(
     swap = img[:, 0, 0] > img[:, 1, 0]
     img[swap] = img[swap, ::-1]
     return img
+
+
+def visible_floor_lines(
+    edges: SceneEdges,
+    head: HeadPose,
+    rig: StereoRig,
+    corners: IntArray,
+    *,
+    samples: int = 5,
+    max_range_m: float,
+) -> FloatArray:
+    """:func:`visible_floor_lines_reference` in one compiled pass over the parts' floor sides
+    (a test holds them equal, bit for bit): about 0.02 ms a view instead of 0.18."""
+    (cx, cy), rig_f = rig.principal_point_px, rig.focal_px
+    out: FloatArray = floor_lines_loop(
+        np.array(
+            [
+                head.x_m,
+                head.y_m,
+                head.height_m,
+                math.cos(head.heading_rad),
+                math.sin(head.heading_rad),
+            ]
+        ),
+        np.array(
+            [
+                rig_f,
+                cx,
+                cy,
+                rig.fb,
+                rig.min_depth_m,
+                rig.max_depth_m,
+                rig.width_px,
+                rig.height_px,
+            ],
+            dtype=np.float64,
+        ),
+        edges.line_ends,
+        edges.line_normal,
+        np.ascontiguousarray(edges.corner_xy[corners]),
+        int(samples),
+        float(max_range_m),
+        edges.side_start,
+        edges.side_normal,
+        edges.z_min,
+        edges.z_max,
+        _PULL_BACK_M,
+    )
+    return out

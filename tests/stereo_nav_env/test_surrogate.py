@@ -23,6 +23,8 @@ from stereo_nav_env.surrogate import (
     SurrogateRates,
     default_rates,
     perceive_surrogate,
+    piece_fits,
+    piece_fits_reference,
     surrogate_segments,
 )
 from stereo_nav_env.surrogate_visibility import (
@@ -32,6 +34,8 @@ from stereo_nav_env.surrogate_visibility import (
     seen_runs,
     seen_runs_reference,
     visible_edges,
+    visible_floor_lines,
+    visible_floor_lines_reference,
 )
 
 RIG = StereoRig()
@@ -346,3 +350,57 @@ def test_the_compiled_sweep_equals_its_numpy_reference(family: str) -> None:
             assert np.array_equal(mask, floor_hidden_reference(edges, head, points))
             hidden += int(mask.sum())
     assert runs_cut > 0 and hidden > 0  # the poses do see parts hide one another
+
+
+@pytest.mark.parametrize("family", ["office", "cluttered", "room", "corridor"])
+def test_the_compiled_floor_lines_equal_their_numpy_reference(family: str) -> None:
+    rng = np.random.default_rng(11)
+    lines = 0
+    for seed in range(3):
+        scene = generate_scene(seed, family=family)
+        edges = SceneEdges.of(scene)
+        x0, y0, x1, y1 = scene.bounds
+        for trial in range(30):
+            head = HeadPose(
+                x_m=rng.uniform(x0, x1),
+                y_m=rng.uniform(y0, y1),
+                heading_rad=rng.uniform(-math.pi, math.pi),
+                height_m=rng.uniform(0.5, 1.2),
+            )
+            corners = (  # every corner, or those the head sees (a face joins only those)
+                np.arange(edges.corner_xy.shape[0])
+                if trial % 2
+                else visible_edges(edges, head, RIG, trim_px=2.0, min_length_px=10.0).corner
+            )
+            for samples in (1, 5):
+                got = visible_floor_lines(
+                    edges, head, RIG, corners, samples=samples, max_range_m=5.0
+                )
+                want = visible_floor_lines_reference(
+                    edges, head, RIG, corners, samples=samples, max_range_m=5.0
+                )
+                assert got.shape == want.shape and np.array_equal(got, want)
+                lines += want.shape[0]
+    assert lines > 0
+    none = visible_floor_lines(edges, HEAD, RIG, np.zeros(0, np.int64), max_range_m=5.0)
+    assert none.shape == (0, 2, 2)
+
+
+def test_the_compiled_piece_fits_equal_their_numpy_reference() -> None:
+    rng = np.random.default_rng(5)
+    for m in (0, 1, 7, 40):
+        top = rng.uniform(0.0, 200.0, m)
+        bottom = top + rng.uniform(3.0, 80.0, m)
+        centre = rng.uniform(0.0, 320.0, m)
+        draw = rng.standard_normal((3, m)) * 1.3
+        got = piece_fits(top, bottom, centre, draw, 0.25, 0.04)
+        want = piece_fits_reference(top, bottom, centre, draw, 0.25, 0.04)
+        for a, b in zip(got, want, strict=True):
+            assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b)
+    # the errors' scale follows the fit: more rows, a smaller offset's and slope's variance
+    ends, u_c, v_c, slope, *_ = piece_fits_reference(
+        np.zeros(2), np.array([9.0, 99.0]), np.zeros(2), np.ones((3, 2)), 1.0, 0.0
+    )
+    assert np.allclose(u_c, [1.0 / math.sqrt(10.0), 0.1])
+    assert np.allclose(slope, [1.0 / math.sqrt(82.5), 1.0 / math.sqrt(83325.0)])
+    assert np.allclose(ends[:, :, 1], [[0.0, 9.0], [0.0, 99.0]]) and np.allclose(v_c, [4.5, 49.5])
