@@ -201,10 +201,11 @@ class ImageSegments:
         object.__setattr__(self, "image_shape", shape)
 
     @classmethod
-    def _trusted(cls, image_shape: tuple[int, int], **arrays: np.ndarray) -> ImageSegments:
-        """Built from arrays that ``extract_segments`` has produced with the right shapes and
-        dtypes: skips the conversions and checks of ``__post_init__`` (they would cost a tenth of
-        the extraction)."""
+    def trusted(cls, image_shape: tuple[int, int], **arrays: np.ndarray) -> ImageSegments:
+        """Built from arrays a producer has made with the shapes, dtypes and C-contiguous
+        layout ``__post_init__`` would give them (``extract_segments``; the env's surrogate
+        perception): skips its conversions and checks (they would cost a tenth of the
+        extraction). Every field but ``horizontal`` (default: none) must be given."""
         obj = object.__new__(cls)
         arrays.setdefault("horizontal", np.zeros((0, 2, 2)))
         for name, arr in arrays.items():
@@ -506,7 +507,7 @@ def _fit(
             out.append(ImageSegments.empty(shape, horizontal=horizontal[k]))
             continue
         out.append(
-            ImageSegments._trusted(
+            ImageSegments.trusted(
                 shape,
                 bias_var=np.full(mine.size, float(opts.bias_sigma_px) ** 2),
                 polarity=edges.polarity[mine],

@@ -1,11 +1,13 @@
-"""The compiled loops of the surrogate's visibility sweep (:mod:`.surrogate_visibility`).
+"""The compiled loops of the surrogate's visibility sweep (:mod:`.surrogate_visibility`,
+:mod:`.surrogate_floor`).
 
 Each loop has a NumPy reference there (``seen_runs_reference``, ``floor_hidden_reference``: the
-sight lines clipped to every part at once by ``clip_to_parts``; ``visible_floor_lines_reference``)
-that a test holds it equal to, bit for bit. Per sight line, from the head ``(hx, hy)`` to a target stopped ``pull_back`` short
-of it, every part's footprint is clipped by Cyrus-Beck (``side_start``, ``side_normal``: each
-part's corners and outward side normals, padded by repeating the last), in the reference's
-arithmetic order. Frames and units: world metres, z up.
+sight lines clipped to every part at once by ``clip_to_parts``; ``visible_floor_lines_reference``,
+``visible_edges_reference``) that a test holds it equal to, bit for bit. Per sight line, from the
+head ``(hx, hy)`` to a target stopped ``pull_back`` short of it, every part's footprint is clipped
+by Cyrus-Beck (``side_start``, ``side_normal``: each part's corners and outward side normals,
+padded by repeating the last), in the reference's arithmetic order. Frames and units: world
+metres, z up.
 """
 
 from __future__ import annotations
@@ -15,7 +17,13 @@ from numpy.typing import NDArray
 
 from modeling.jit import compiled_helper, compiled_on_first_call
 
-__all__ = ["crossing", "floor_hidden_loop", "floor_lines_loop", "seen_runs_loop"]
+__all__ = [
+    "crossing",
+    "edge_candidates_loop",
+    "floor_hidden_loop",
+    "floor_lines_loop",
+    "seen_runs_loop",
+]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -268,3 +276,58 @@ def floor_lines_loop(
                 k += 1
                 first = -1
     return out[:k].copy()
+
+
+@compiled_on_first_call
+def edge_candidates_loop(
+    head: FloatArray,
+    camera: FloatArray,
+    corner_xy: FloatArray,
+    corner_normals: FloatArray,
+    corner_z: FloatArray,
+    trim_px: float,
+) -> tuple[IntArray, FloatArray, FloatArray, FloatArray, FloatArray, BoolArray]:
+    """The first half of ``visible_edges_reference`` as one loop, in its arithmetic order: the
+    edges in the disparity range and both images' columns with a side facing the head, and
+    their heights inside the image's rows (trimmed by ``trim_px``).
+
+    ``head`` and ``camera`` as in :func:`floor_lines_loop`. Returns ``(cand, X, Z, low, high,
+    crease)``: the candidate corners, their camera coordinates, their height range and whether
+    both sides face the head."""
+    hx, hy, hh, c, s = head[0], head[1], head[2], head[3], head[4]
+    f, cx, cy, fb = camera[0], camera[1], camera[2], camera[3]
+    z_lo, z_hi, width, height = camera[4], camera[5], camera[6], camera[7]
+    lo, hi = 1.0 - 0.5, width - 0.5 - 1.0
+    n = corner_xy.shape[0]
+    cand = np.empty(n, dtype=np.int64)
+    X_out, Z_out = np.empty(n), np.empty(n)
+    low, high = np.empty(n), np.empty(n)
+    crease = np.empty(n, dtype=np.bool_)
+    k = 0
+    for i in range(n):
+        dx, dy = corner_xy[i, 0] - hx, corner_xy[i, 1] - hy
+        X, Z = s * dx - c * dy, c * dx + s * dy
+        tx, ty = hx - corner_xy[i, 0], hy - corner_xy[i, 1]
+        face0 = corner_normals[i, 0, 0] * tx + corner_normals[i, 0, 1] * ty > 0.0
+        face1 = corner_normals[i, 1, 0] * tx + corner_normals[i, 1, 1] * ty > 0.0
+        if not (face0 or face1):
+            continue
+        if not (Z >= z_lo and Z <= z_hi):
+            continue
+        u = cx + f * X / Z
+        u_right = u - fb / Z
+        if not (u >= lo and u <= hi and u_right >= lo and u_right <= hi):
+            continue
+        cand[k], X_out[k], Z_out[k] = i, X, Z
+        low[k] = max(corner_z[i, 0], hh - (height - 1.0 - trim_px - cy) * Z / f)
+        high[k] = min(corner_z[i, 1], hh - (trim_px - cy) * Z / f)
+        crease[k] = face0 and face1
+        k += 1
+    return (
+        cand[:k].copy(),
+        X_out[:k].copy(),
+        Z_out[:k].copy(),
+        low[:k].copy(),
+        high[:k].copy(),
+        crease[:k].copy(),
+    )

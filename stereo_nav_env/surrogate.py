@@ -66,13 +66,9 @@ from modeling.segments import ImageSegments, SegmentOptions
 from modeling.triangulation import triangulate_to_floor
 from stereo_nav_env.perception import ComparableModel, Stopwatch
 from stereo_nav_env.scenes import ObstacleKind
+from stereo_nav_env.surrogate_floor import visible_floor_lines
 from stereo_nav_env.surrogate_photometry import image_pieces
-from stereo_nav_env.surrogate_visibility import (
-    SceneEdges,
-    VisibleEdges,
-    visible_edges,
-    visible_floor_lines,
-)
+from stereo_nav_env.surrogate_visibility import SceneEdges, VisibleEdges, visible_edges
 
 __all__ = [
     "EDGE_CLASSES",
@@ -322,8 +318,10 @@ def surrogate_segments(
             rig.sigma_px**2,
             opts.bias_sigma_px**2,
         )
-        g = pieces.greys[:, r]
-        return ImageSegments(
+        g = np.ascontiguousarray(pieces.greys[:, r])  # rows C-contiguous
+        # every array made here with the dtype and layout ImageSegments keeps (a test checks)
+        return ImageSegments.trusted(
+            (int(rig.height_px), int(rig.width_px)),
             endpoints=fit[0],
             u_center=fit[1],
             v_center=fit[2],
@@ -338,7 +336,6 @@ def surrogate_segments(
             grey_right=g[1],
             grey_left_near=g[2],
             grey_right_near=g[3],
-            image_shape=(rig.height_px, rig.width_px),
             horizontal=lines,
         )
 

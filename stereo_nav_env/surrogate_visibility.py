@@ -34,7 +34,10 @@ import shapely
 from numpy.typing import NDArray
 
 from modeling.rig import HeadPose, StereoRig
-from stereo_nav_env._visibility_loops import floor_hidden_loop, floor_lines_loop, seen_runs_loop
+from stereo_nav_env._visibility_loops import (
+    edge_candidates_loop,
+    seen_runs_loop,
+)
 from stereo_nav_env.scenes import ObstacleKind, Scene
 from stereo_nav_env.shading import (
     BACKGROUND_COLOR,
@@ -50,13 +53,10 @@ __all__ = [
     "SceneEdges",
     "VisibleEdges",
     "clip_to_parts",
-    "floor_hidden",
-    "floor_hidden_reference",
     "seen_runs",
     "seen_runs_reference",
     "visible_edges",
-    "visible_floor_lines",
-    "visible_floor_lines_reference",
+    "visible_edges_reference",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -314,7 +314,7 @@ def _blocked(
     return line, part, t0 * scale, t1 * scale
 
 
-def visible_edges(
+def visible_edges_reference(
     edges: SceneEdges, head: HeadPose, rig: StereoRig, *, trim_px: float, min_length_px: float
 ) -> VisibleEdges:
     """The vertical edges the head sees, each with its longest visible run of heights.
@@ -361,6 +361,53 @@ def visible_edges(
         v_bottom=v_bottom[sel],
         group=edges.corner_group[corner],
         crease=facing[corner].all(axis=1),
+    )
+
+
+def _head_array(head: HeadPose) -> FloatArray:
+    """``(x, y, height, cos heading, sin heading)`` of ``head``, for the compiled loops."""
+    c, s = math.cos(head.heading_rad), math.sin(head.heading_rad)
+    return np.array([head.x_m, head.y_m, head.height_m, c, s])
+
+
+def _camera_array(rig: StereoRig) -> FloatArray:
+    """``(focal, cx, cy, f b, min depth, max depth, width, height)`` of ``rig``, for the
+    compiled loops."""
+    (cx, cy), f = rig.principal_point_px, rig.focal_px
+    values = (f, cx, cy, rig.fb, rig.min_depth_m, rig.max_depth_m, rig.width_px, rig.height_px)
+    return np.array(values, dtype=np.float64)
+
+
+def visible_edges(
+    edges: SceneEdges, head: HeadPose, rig: StereoRig, *, trim_px: float, min_length_px: float
+) -> VisibleEdges:
+    """:func:`visible_edges_reference` (the one to read, with the arguments) with its candidate
+    edges found by one compiled loop (a test holds them equal, bit for bit)."""
+    cand, X, Z, low, high, crease = edge_candidates_loop(
+        _head_array(head),
+        _camera_array(rig),
+        edges.corner_xy,
+        edges.corner_normals,
+        edges.corner_z,
+        float(trim_px),
+    )
+    f, (cx, cy), Hh = rig.focal_px, rig.principal_point_px, head.height_m
+    low, high = seen_runs(edges, head, cand, low, high)
+    v_top = cy + f * (Hh - high) / Z
+    v_bottom = cy + f * (Hh - low) / Z
+    sel = np.flatnonzero(v_bottom - v_top >= min_length_px)
+    corner = cand[sel]
+    return VisibleEdges(
+        corner=corner,
+        X=X[sel],
+        Z=Z[sel],
+        z_low=low[sel],
+        z_high=high[sel],
+        u=cx + f * X[sel] / Z[sel],
+        v_top=v_top[sel],
+        v_bottom=v_bottom[sel],
+        group=edges.corner_group[corner],
+        crease=crease[sel],
     )
 
 
@@ -441,142 +488,3 @@ def _longest_run(
     if high - cursor > best[1] - best[0]:
         best = (cursor, high)
     return best
-
-
-def floor_hidden_reference(edges: SceneEdges, head: HeadPose, points: FloatArray) -> BoolArray:
-    """:func:`floor_hidden` in NumPy: the sight lines clipped to every part at once
-    (:func:`_blocked`)."""
-    Hh = head.height_m
-    line, part, t0, t1 = _blocked(edges, head, points)
-    # the floor point (t = 1) is hidden by a part whose height range the sight line (at height
-    # Hh (1 - t)) meets between t0 and t1
-    out = np.zeros(points.shape[0], dtype=bool)
-    out[line[(Hh * (1.0 - t0) > edges.z_min[part]) & (Hh * (1.0 - t1) < edges.z_max[part])]] = True
-    return out
-
-
-def floor_hidden(edges: SceneEdges, head: HeadPose, points: FloatArray) -> BoolArray:
-    """(n,) whether a part hides each floor point (n, 2) from the head; one compiled pass over
-    the points and parts (:func:`floor_hidden_reference` is the same in NumPy, and a test
-    holds them equal)."""
-    return floor_hidden_loop(
-        head.x_m,
-        head.y_m,
-        head.height_m,
-        np.ascontiguousarray(points, dtype=np.float64),
-        edges.side_start,
-        edges.side_normal,
-        edges.z_min,
-        edges.z_max,
-        _PULL_BACK_M,
-    )
-
-
-def visible_floor_lines_reference(
-    edges: SceneEdges,
-    head: HeadPose,
-    rig: StereoRig,
-    corners: IntArray,
-    *,
-    samples: int = 5,
-    max_range_m: float,
-) -> FloatArray:
-    """The image lines of the parts' floor sides the head sees, (k, 2, 2) ``[[u, v], [u, v]]`` px,
-    left end first.
-
-    Only the sides whose two ends lie within 2 cm of edges among ``corners`` (indices into
-    ``SceneEdges.corner_xy``: those seen, the only ones a face can join; a shelf's bottom board
-    runs between the corners of its sides) are looked at. A side
-    within ``max_range_m`` whose outer face turns to the head is sampled at
-    ``samples`` points; a point is seen if it is in the image (both images' columns, the rows)
-    and no part hides the floor there. Each run of seen points gives one line, from half a sample
-    step before its first point to half a step after its last (clipped to the side).
-    """
-    if edges.line_ends.shape[0] == 0:
-        return np.zeros((0, 2, 2))
-    head_xy = np.array([head.x_m, head.y_m])
-    mid = edges.line_ends.mean(axis=1)
-    near = np.hypot(*(mid - head_xy).T) <= max_range_m
-    facing = np.einsum("li,li->l", edges.line_normal, head_xy - mid) > 0.0
-    seen_xy = edges.corner_xy[corners]  # (c, 2)
-    gap = edges.line_ends[:, :, None, :] - seen_xy[None, None]  # (L, 2, c, 2)
-    both = ((gap * gap).sum(axis=-1).min(axis=-1, initial=np.inf) <= 0.02**2).all(axis=1)
-    lines = np.flatnonzero(near & facing & both)
-    if lines.size == 0:
-        return np.zeros((0, 2, 2))
-    t = (np.arange(samples) + 0.5) / samples
-    a, b = edges.line_ends[lines, 0], edges.line_ends[lines, 1]
-    pts = a[:, None] + t[None, :, None] * (b - a)[:, None]  # (l, samples, 2)
-    flat = pts.reshape(-1, 2)
-    X, Z = _camera(flat, head)
-    f, (cx, cy), Hh = rig.focal_px, rig.principal_point_px, head.height_m
-    seen = _in_view(X, Z, rig, 1.0)
-    seen &= cy + f * Hh / np.where(Z > 0, Z, 1.0) <= rig.height_px - 1.0
-    seen &= ~floor_hidden(edges, head, flat)
-    seen = seen.reshape(lines.size, samples)
-    # runs of seen samples: a start where the previous sample is unseen, a stop where the next is
-    pad = np.zeros((lines.size, samples + 2), dtype=bool)
-    pad[:, 1:-1] = seen
-    line_k, first = np.nonzero(pad[:, 1:-1] & ~pad[:, :-2])
-    _, last = np.nonzero(pad[:, 1:-1] & ~pad[:, 2:])  # row-major: the same runs, in order
-    if line_k.size == 0:
-        return np.zeros((0, 2, 2))
-    half = 0.5 / samples
-    ta, tb = t[first] - half, t[last] + half
-    ab = (b - a)[line_k]
-    ends = np.stack([a[line_k] + ta[:, None] * ab, a[line_k] + tb[:, None] * ab], axis=1)
-    Xe, Ze = _camera(ends, head)
-    Ze = np.maximum(Ze, 1e-6)
-    img = np.stack([cx + f * Xe / Ze, cy + f * Hh / Ze], axis=-1)
-    swap = img[:, 0, 0] > img[:, 1, 0]
-    img[swap] = img[swap, ::-1]
-    return img
-
-
-def visible_floor_lines(
-    edges: SceneEdges,
-    head: HeadPose,
-    rig: StereoRig,
-    corners: IntArray,
-    *,
-    samples: int = 5,
-    max_range_m: float,
-) -> FloatArray:
-    """:func:`visible_floor_lines_reference` in one compiled pass over the parts' floor sides
-    (a test holds them equal, bit for bit): about 0.02 ms a view instead of 0.18."""
-    (cx, cy), rig_f = rig.principal_point_px, rig.focal_px
-    out: FloatArray = floor_lines_loop(
-        np.array(
-            [
-                head.x_m,
-                head.y_m,
-                head.height_m,
-                math.cos(head.heading_rad),
-                math.sin(head.heading_rad),
-            ]
-        ),
-        np.array(
-            [
-                rig_f,
-                cx,
-                cy,
-                rig.fb,
-                rig.min_depth_m,
-                rig.max_depth_m,
-                rig.width_px,
-                rig.height_px,
-            ],
-            dtype=np.float64,
-        ),
-        edges.line_ends,
-        edges.line_normal,
-        np.ascontiguousarray(edges.corner_xy[corners]),
-        int(samples),
-        float(max_range_m),
-        edges.side_start,
-        edges.side_normal,
-        edges.z_min,
-        edges.z_max,
-        _PULL_BACK_M,
-    )
-    return out

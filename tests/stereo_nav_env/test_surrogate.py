@@ -13,6 +13,7 @@ import pytest
 import stereo_nav_env  # noqa: F401  (registers the ids)
 from modeling.matching import match_candidates, match_segments
 from modeling.rig import HeadPose, StereoRig
+from modeling.segments import ImageSegments
 from modeling.triangulation import triangulate_to_floor
 from stereo_nav_env.config import EnvConfig
 from stereo_nav_env.env import StereoNavEnv
@@ -27,15 +28,18 @@ from stereo_nav_env.surrogate import (
     piece_fits_reference,
     surrogate_segments,
 )
-from stereo_nav_env.surrogate_visibility import (
-    SceneEdges,
+from stereo_nav_env.surrogate_floor import (
     floor_hidden,
     floor_hidden_reference,
+    visible_floor_lines,
+    visible_floor_lines_reference,
+)
+from stereo_nav_env.surrogate_visibility import (
+    SceneEdges,
     seen_runs,
     seen_runs_reference,
     visible_edges,
-    visible_floor_lines,
-    visible_floor_lines_reference,
+    visible_edges_reference,
 )
 
 RIG = StereoRig()
@@ -384,6 +388,54 @@ def test_the_compiled_floor_lines_equal_their_numpy_reference(family: str) -> No
     assert lines > 0
     none = visible_floor_lines(edges, HEAD, RIG, np.zeros(0, np.int64), max_range_m=5.0)
     assert none.shape == (0, 2, 2)
+
+
+def test_the_surrogate_segments_are_what_image_segments_checks_would_make() -> None:
+    # they skip ImageSegments' conversions and checks: those must leave them unchanged
+    found = 0
+    for seed in range(3):
+        scene = generate_scene(seed, family="office")
+        edges = SceneEdges.of(scene)
+        x, y, heading = scene.start
+        head = HeadPose(x_m=x, y_m=y, heading_rad=heading, height_m=0.8)
+        for image in surrogate_segments(edges, RIG, head, np.random.default_rng(seed), EXACT):
+            fields = {f.name: getattr(image, f.name) for f in dataclasses.fields(image)}
+            checked = ImageSegments(**fields)
+            for name, value in fields.items():
+                if isinstance(value, np.ndarray):
+                    again = getattr(checked, name)
+                    same = again.dtype == value.dtype and again.shape == value.shape
+                    kept = value.size == 0 or np.shares_memory(again, value)
+                    assert same and kept, name  # no conversion
+                    assert value.flags.c_contiguous and not value.flags.writeable, name
+            assert checked.image_shape == image.image_shape == (RIG.height_px, RIG.width_px)
+            found += len(image)
+    assert found > 0
+
+
+@pytest.mark.parametrize("family", ["office", "cluttered", "room", "corridor"])
+def test_the_compiled_edge_search_equals_its_numpy_reference(family: str) -> None:
+    rng = np.random.default_rng(13)
+    seen = creases = 0
+    for seed in range(3):
+        scene = generate_scene(seed, family=family)
+        edges = SceneEdges.of(scene)
+        x0, y0, x1, y1 = scene.bounds
+        for _ in range(30):
+            head = HeadPose(
+                x_m=rng.uniform(x0, x1),
+                y_m=rng.uniform(y0, y1),
+                heading_rad=rng.uniform(-math.pi, math.pi),
+                height_m=rng.uniform(0.5, 1.2),
+            )
+            got = visible_edges(edges, head, RIG, trim_px=2.0, min_length_px=10.0)
+            want = visible_edges_reference(edges, head, RIG, trim_px=2.0, min_length_px=10.0)
+            for f in dataclasses.fields(want):
+                a, b = getattr(got, f.name), getattr(want, f.name)
+                assert a.dtype == b.dtype and np.array_equal(a, b), f.name
+            seen += len(want)
+            creases += int(want.crease.sum())
+    assert seen > 0 and creases > 0
 
 
 def test_the_compiled_piece_fits_equal_their_numpy_reference() -> None:
