@@ -338,17 +338,36 @@ def visible_edges_reference(
     facing = np.einsum("cki,ci->ck", edges.corner_normals, to_head) > 0.0
     cand = np.flatnonzero(_in_view(X, Z, rig, 1.0) & facing.any(axis=1))
     X, Z = X[cand], Z[cand]
-    f, (cx, cy), Hh = rig.focal_px, rig.principal_point_px, head.height_m
+    f, cy, Hh = rig.focal_px, rig.principal_point_px[1], head.height_m
     # the heights inside the image's rows (v = cy + f (Hh - z) / Z), trimmed
     z_img_low = Hh - (rig.height_px - 1.0 - trim_px - cy) * Z / f
     z_img_high = Hh - (trim_px - cy) * Z / f
     low = np.maximum(edges.corner_z[cand, 0], z_img_low)
     high = np.minimum(edges.corner_z[cand, 1], z_img_high)
+    crease = facing[cand].all(axis=1)
+    return _seen(edges, head, rig, cand, X, Z, low, high, crease, min_length_px)
+
+
+def _seen(
+    edges: SceneEdges,
+    head: HeadPose,
+    rig: StereoRig,
+    cand: IntArray,
+    X: FloatArray,
+    Z: FloatArray,
+    low: FloatArray,
+    high: FloatArray,
+    crease: BoolArray,
+    min_length_px: float,
+) -> VisibleEdges:
+    """The candidate edges ``cand`` (camera ``X``, ``Z``; heights ``[low, high]`` inside the
+    image's rows; ``crease``) cut to their longest unhidden run (:func:`seen_runs`), those whose
+    image run keeps ``min_length_px`` rows."""
+    f, (cx, cy), Hh = rig.focal_px, rig.principal_point_px, head.height_m
     low, high = seen_runs(edges, head, cand, low, high)
     v_top = cy + f * (Hh - high) / Z
     v_bottom = cy + f * (Hh - low) / Z
-    keep = v_bottom - v_top >= min_length_px
-    sel = np.flatnonzero(keep)
+    sel = np.flatnonzero(v_bottom - v_top >= min_length_px)
     corner = cand[sel]
     return VisibleEdges(
         corner=corner,
@@ -360,7 +379,7 @@ def visible_edges_reference(
         v_top=v_top[sel],
         v_bottom=v_bottom[sel],
         group=edges.corner_group[corner],
-        crease=facing[corner].all(axis=1),
+        crease=crease[sel],
     )
 
 
@@ -391,24 +410,7 @@ def visible_edges(
         edges.corner_z,
         float(trim_px),
     )
-    f, (cx, cy), Hh = rig.focal_px, rig.principal_point_px, head.height_m
-    low, high = seen_runs(edges, head, cand, low, high)
-    v_top = cy + f * (Hh - high) / Z
-    v_bottom = cy + f * (Hh - low) / Z
-    sel = np.flatnonzero(v_bottom - v_top >= min_length_px)
-    corner = cand[sel]
-    return VisibleEdges(
-        corner=corner,
-        X=X[sel],
-        Z=Z[sel],
-        z_low=low[sel],
-        z_high=high[sel],
-        u=cx + f * X[sel] / Z[sel],
-        v_top=v_top[sel],
-        v_bottom=v_bottom[sel],
-        group=edges.corner_group[corner],
-        crease=crease[sel],
-    )
+    return _seen(edges, head, rig, cand, X, Z, low, high, crease, min_length_px)
 
 
 def seen_runs_reference(
