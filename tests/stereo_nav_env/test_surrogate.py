@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Iterator
 
 import gymnasium as gym
 import numpy as np
@@ -73,6 +74,26 @@ def _visible(scene: Scene) -> tuple[SceneEdges, np.ndarray]:
     edges = SceneEdges.of(scene)
     vis = visible_edges(edges, HEAD, RIG, trim_px=2, min_length_px=12.0)
     return edges, vis
+
+
+def _random_heads(
+    family: str, rng: np.random.Generator, per_scene: int
+) -> Iterator[tuple[Scene, SceneEdges, int, HeadPose]]:
+    """``(scene, edges, trial, head)``: ``per_scene`` heads drawn from ``rng`` anywhere in each of
+    three seeded scenes of ``family`` (drawn lazily: the caller's draws between them stay in
+    order)."""
+    for seed in range(3):
+        scene = generate_scene(seed, family=family)
+        edges = SceneEdges.of(scene)
+        x0, y0, x1, y1 = scene.bounds
+        for trial in range(per_scene):
+            head = HeadPose(
+                x_m=rng.uniform(x0, x1),
+                y_m=rng.uniform(y0, y1),
+                heading_rad=rng.uniform(-math.pi, math.pi),
+                height_m=rng.uniform(0.5, 1.2),
+            )
+            yield scene, edges, trial, head
 
 
 def test_the_sweep_hides_what_is_behind_a_box() -> None:
@@ -329,30 +350,21 @@ def test_segments_stop_the_end_loss_short_of_the_seen_run() -> None:
 def test_the_compiled_sweep_equals_its_numpy_reference(family: str) -> None:
     rng = np.random.default_rng(7)
     hidden = runs_cut = 0
-    for seed in range(3):
-        scene = generate_scene(seed, family=family)
-        edges = SceneEdges.of(scene)
+    for scene, edges, _, head in _random_heads(family, rng, 20):
         x0, y0, x1, y1 = scene.bounds
         every = np.arange(edges.corner_xy.shape[0])
-        for _ in range(20):
-            head = HeadPose(
-                x_m=rng.uniform(x0, x1),
-                y_m=rng.uniform(y0, y1),
-                heading_rad=rng.uniform(-math.pi, math.pi),
-                height_m=rng.uniform(0.5, 1.2),
-            )
-            low = edges.corner_z[:, 0] - rng.uniform(0.0, 0.2, every.size)
-            high = edges.corner_z[:, 1] + rng.uniform(0.0, 0.2, every.size)
-            got, want = (
-                seen_runs(edges, head, every, low, high),
-                seen_runs_reference(edges, head, every, low, high),
-            )
-            assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
-            runs_cut += int(np.count_nonzero(want[1] - want[0] < high - low))
-            points = np.c_[rng.uniform(x0, x1, 40), rng.uniform(y0, y1, 40)]
-            mask = floor_hidden(edges, head, points)
-            assert np.array_equal(mask, floor_hidden_reference(edges, head, points))
-            hidden += int(mask.sum())
+        low = edges.corner_z[:, 0] - rng.uniform(0.0, 0.2, every.size)
+        high = edges.corner_z[:, 1] + rng.uniform(0.0, 0.2, every.size)
+        got, want = (
+            seen_runs(edges, head, every, low, high),
+            seen_runs_reference(edges, head, every, low, high),
+        )
+        assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+        runs_cut += int(np.count_nonzero(want[1] - want[0] < high - low))
+        points = np.c_[rng.uniform(x0, x1, 40), rng.uniform(y0, y1, 40)]
+        mask = floor_hidden(edges, head, points)
+        assert np.array_equal(mask, floor_hidden_reference(edges, head, points))
+        hidden += int(mask.sum())
     assert runs_cut > 0 and hidden > 0  # the poses do see parts hide one another
 
 
@@ -360,31 +372,19 @@ def test_the_compiled_sweep_equals_its_numpy_reference(family: str) -> None:
 def test_the_compiled_floor_lines_equal_their_numpy_reference(family: str) -> None:
     rng = np.random.default_rng(11)
     lines = 0
-    for seed in range(3):
-        scene = generate_scene(seed, family=family)
-        edges = SceneEdges.of(scene)
-        x0, y0, x1, y1 = scene.bounds
-        for trial in range(30):
-            head = HeadPose(
-                x_m=rng.uniform(x0, x1),
-                y_m=rng.uniform(y0, y1),
-                heading_rad=rng.uniform(-math.pi, math.pi),
-                height_m=rng.uniform(0.5, 1.2),
+    for _scene, edges, trial, head in _random_heads(family, rng, 30):
+        corners = (  # every corner, or those the head sees (a face joins only those)
+            np.arange(edges.corner_xy.shape[0])
+            if trial % 2
+            else visible_edges(edges, head, RIG, trim_px=2.0, min_length_px=10.0).corner
+        )
+        for samples in (1, 5):
+            got = visible_floor_lines(edges, head, RIG, corners, samples=samples, max_range_m=5.0)
+            want = visible_floor_lines_reference(
+                edges, head, RIG, corners, samples=samples, max_range_m=5.0
             )
-            corners = (  # every corner, or those the head sees (a face joins only those)
-                np.arange(edges.corner_xy.shape[0])
-                if trial % 2
-                else visible_edges(edges, head, RIG, trim_px=2.0, min_length_px=10.0).corner
-            )
-            for samples in (1, 5):
-                got = visible_floor_lines(
-                    edges, head, RIG, corners, samples=samples, max_range_m=5.0
-                )
-                want = visible_floor_lines_reference(
-                    edges, head, RIG, corners, samples=samples, max_range_m=5.0
-                )
-                assert got.shape == want.shape and np.array_equal(got, want)
-                lines += want.shape[0]
+            assert got.shape == want.shape and np.array_equal(got, want)
+            lines += want.shape[0]
     assert lines > 0
     none = visible_floor_lines(edges, HEAD, RIG, np.zeros(0, np.int64), max_range_m=5.0)
     assert none.shape == (0, 2, 2)
@@ -417,24 +417,14 @@ def test_the_surrogate_segments_are_what_image_segments_checks_would_make() -> N
 def test_the_compiled_edge_search_equals_its_numpy_reference(family: str) -> None:
     rng = np.random.default_rng(13)
     seen = creases = 0
-    for seed in range(3):
-        scene = generate_scene(seed, family=family)
-        edges = SceneEdges.of(scene)
-        x0, y0, x1, y1 = scene.bounds
-        for _ in range(30):
-            head = HeadPose(
-                x_m=rng.uniform(x0, x1),
-                y_m=rng.uniform(y0, y1),
-                heading_rad=rng.uniform(-math.pi, math.pi),
-                height_m=rng.uniform(0.5, 1.2),
-            )
-            got = visible_edges(edges, head, RIG, trim_px=2.0, min_length_px=10.0)
-            want = visible_edges_reference(edges, head, RIG, trim_px=2.0, min_length_px=10.0)
-            for f in dataclasses.fields(want):
-                a, b = getattr(got, f.name), getattr(want, f.name)
-                assert a.dtype == b.dtype and np.array_equal(a, b), f.name
-            seen += len(want)
-            creases += int(want.crease.sum())
+    for _scene, edges, _, head in _random_heads(family, rng, 30):
+        got = visible_edges(edges, head, RIG, trim_px=2.0, min_length_px=10.0)
+        want = visible_edges_reference(edges, head, RIG, trim_px=2.0, min_length_px=10.0)
+        for f in dataclasses.fields(want):
+            a, b = getattr(got, f.name), getattr(want, f.name)
+            assert a.dtype == b.dtype and np.array_equal(a, b), f.name
+        seen += len(want)
+        creases += int(want.crease.sum())
     assert seen > 0 and creases > 0
 
 
