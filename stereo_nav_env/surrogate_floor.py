@@ -19,13 +19,13 @@ from numpy.typing import NDArray
 from modeling.rig import HeadPose, StereoRig
 from stereo_nav_env._visibility_loops import floor_hidden_loop, floor_lines_loop
 from stereo_nav_env.surrogate_visibility import (
-    _PULL_BACK_M,
+    PULL_BACK_M,
     SceneEdges,
-    _blocked,
-    _camera,
-    _camera_array,
-    _head_array,
-    _in_view,
+    camera_array,
+    camera_xz,
+    head_array,
+    in_both_images,
+    sight_blocked,
 )
 
 __all__ = [
@@ -42,9 +42,9 @@ BoolArray = NDArray[np.bool_]
 
 def floor_hidden_reference(edges: SceneEdges, head: HeadPose, points: FloatArray) -> BoolArray:
     """:func:`floor_hidden` in NumPy: the sight lines clipped to every part at once
-    (:func:`_blocked`)."""
+    (:func:`sight_blocked`)."""
     Hh = head.height_m
-    line, part, t0, t1 = _blocked(edges, head, points)
+    line, part, t0, t1 = sight_blocked(edges, head, points)
     # the floor point (t = 1) is hidden by a part whose height range the sight line (at height
     # Hh (1 - t)) meets between t0 and t1
     out = np.zeros(points.shape[0], dtype=bool)
@@ -65,7 +65,7 @@ def floor_hidden(edges: SceneEdges, head: HeadPose, points: FloatArray) -> BoolA
         edges.side_normal,
         edges.z_min,
         edges.z_max,
-        _PULL_BACK_M,
+        PULL_BACK_M,
     )
 
 
@@ -105,9 +105,9 @@ def visible_floor_lines_reference(
     a, b = edges.line_ends[lines, 0], edges.line_ends[lines, 1]
     pts = a[:, None] + t[None, :, None] * (b - a)[:, None]  # (l, samples, 2)
     flat = pts.reshape(-1, 2)
-    X, Z = _camera(flat, head)
+    X, Z = camera_xz(flat, head)
     f, (cx, cy), Hh = rig.focal_px, rig.principal_point_px, head.height_m
-    seen = _in_view(X, Z, rig, 1.0)
+    seen = in_both_images(X, Z, rig, 1.0)
     seen &= cy + f * Hh / np.where(Z > 0, Z, 1.0) <= rig.height_px - 1.0
     seen &= ~floor_hidden(edges, head, flat)
     seen = seen.reshape(lines.size, samples)
@@ -122,7 +122,7 @@ def visible_floor_lines_reference(
     ta, tb = t[first] - half, t[last] + half
     ab = (b - a)[line_k]
     ends = np.stack([a[line_k] + ta[:, None] * ab, a[line_k] + tb[:, None] * ab], axis=1)
-    Xe, Ze = _camera(ends, head)
+    Xe, Ze = camera_xz(ends, head)
     Ze = np.maximum(Ze, 1e-6)
     img = np.stack([cx + f * Xe / Ze, cy + f * Hh / Ze], axis=-1)
     swap = img[:, 0, 0] > img[:, 1, 0]
@@ -142,8 +142,8 @@ def visible_floor_lines(
     """:func:`visible_floor_lines_reference` in one compiled pass over the parts' floor sides
     (a test holds them equal, bit for bit): about 0.02 ms a view instead of 0.18."""
     out: FloatArray = floor_lines_loop(
-        _head_array(head),
-        _camera_array(rig),
+        head_array(head),
+        camera_array(rig),
         edges.line_ends,
         edges.line_normal,
         np.ascontiguousarray(edges.corner_xy[corners]),
@@ -153,6 +153,6 @@ def visible_floor_lines(
         edges.side_normal,
         edges.z_min,
         edges.z_max,
-        _PULL_BACK_M,
+        PULL_BACK_M,
     )
     return out

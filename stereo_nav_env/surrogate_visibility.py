@@ -50,11 +50,17 @@ from stereo_nav_env.shading import (
 )
 
 __all__ = [
+    "PULL_BACK_M",
     "SceneEdges",
     "VisibleEdges",
+    "camera_array",
+    "camera_xz",
     "clip_to_parts",
+    "head_array",
+    "in_both_images",
     "seen_runs",
     "seen_runs_reference",
+    "sight_blocked",
     "visible_edges",
     "visible_edges_reference",
 ]
@@ -63,7 +69,7 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
 
-_PULL_BACK_M = 0.005
+PULL_BACK_M = 0.005
 """The sight line stops this short of the edge, so that it does not touch the edge's own part."""
 _REPEATED_KINDS = (ObstacleKind.BOOKSHELF, ObstacleKind.TABLE, ObstacleKind.CHAIR)
 """Kinds whose identical parts (legs, sides and dividers) repeat the same edge."""
@@ -242,14 +248,16 @@ class VisibleEdges:
         return int(self.corner.shape[0])
 
 
-def _camera(xy: FloatArray, head: HeadPose) -> tuple[FloatArray, FloatArray]:
+def camera_xz(xy: FloatArray, head: HeadPose) -> tuple[FloatArray, FloatArray]:
     """Camera ``(X, Z)`` (right, depth) of world floor points (n, 2) for a level head."""
     c, s = math.cos(head.heading_rad), math.sin(head.heading_rad)
     dx, dy = xy[..., 0] - head.x_m, xy[..., 1] - head.y_m
     return s * dx - c * dy, c * dx + s * dy
 
 
-def _in_view(X: FloatArray, Z: FloatArray, rig: StereoRig, margin_px: float) -> NDArray[np.bool_]:
+def in_both_images(
+    X: FloatArray, Z: FloatArray, rig: StereoRig, margin_px: float
+) -> NDArray[np.bool_]:
     """Whether camera points lie in the disparity range and in both images' columns."""
     cx, _ = rig.principal_point_px
     ok = (Z >= rig.min_depth_m) & (Z <= rig.max_depth_m)
@@ -295,11 +303,11 @@ def clip_to_parts(
     return line[hit], part[hit], t0[hit], t1[hit], side
 
 
-def _blocked(
+def sight_blocked(
     edges: SceneEdges, head: HeadPose, targets: FloatArray
 ) -> tuple[IntArray, IntArray, FloatArray, FloatArray]:
     """The parts crossing the sight lines from the head to floor points ``targets`` (n, 2)
-    (:func:`clip_to_parts`; the lines stop ``_PULL_BACK_M`` short of the targets).
+    (:func:`clip_to_parts`; the lines stop ``PULL_BACK_M`` short of the targets).
 
     Returns:
         ``(line, part, t0, t1)``: one row per crossing, the fractions of the line's floor length
@@ -308,9 +316,9 @@ def _blocked(
     head_xy = np.array([head.x_m, head.y_m])
     d = targets - head_xy
     length = np.hypot(d[:, 0], d[:, 1])
-    stop = targets - d * (_PULL_BACK_M / np.maximum(length, 1e-9))[:, None]
+    stop = targets - d * (PULL_BACK_M / np.maximum(length, 1e-9))[:, None]
     line, part, t0, t1, _ = clip_to_parts(edges, np.broadcast_to(head_xy, stop.shape), stop)
-    scale = 1.0 - _PULL_BACK_M / np.maximum(length[line], 1e-9)
+    scale = 1.0 - PULL_BACK_M / np.maximum(length[line], 1e-9)
     return line, part, t0 * scale, t1 * scale
 
 
@@ -332,11 +340,11 @@ def visible_edges_reference(
         trim_px: Rows left out at each end of the image run, px.
         min_length_px: Shortest image run kept, px.
     """
-    X, Z = _camera(edges.corner_xy, head)
+    X, Z = camera_xz(edges.corner_xy, head)
     head_xy = np.array([head.x_m, head.y_m])
     to_head = head_xy - edges.corner_xy
     facing = np.einsum("cki,ci->ck", edges.corner_normals, to_head) > 0.0
-    cand = np.flatnonzero(_in_view(X, Z, rig, 1.0) & facing.any(axis=1))
+    cand = np.flatnonzero(in_both_images(X, Z, rig, 1.0) & facing.any(axis=1))
     X, Z = X[cand], Z[cand]
     f, cy, Hh = rig.focal_px, rig.principal_point_px[1], head.height_m
     # the heights inside the image's rows (v = cy + f (Hh - z) / Z), trimmed
@@ -383,13 +391,13 @@ def _seen(
     )
 
 
-def _head_array(head: HeadPose) -> FloatArray:
+def head_array(head: HeadPose) -> FloatArray:
     """``(x, y, height, cos heading, sin heading)`` of ``head``, for the compiled loops."""
     c, s = math.cos(head.heading_rad), math.sin(head.heading_rad)
     return np.array([head.x_m, head.y_m, head.height_m, c, s])
 
 
-def _camera_array(rig: StereoRig) -> FloatArray:
+def camera_array(rig: StereoRig) -> FloatArray:
     """``(focal, cx, cy, f b, min depth, max depth, width, height)`` of ``rig``, for the
     compiled loops."""
     (cx, cy), f = rig.principal_point_px, rig.focal_px
@@ -403,8 +411,8 @@ def visible_edges(
     """:func:`visible_edges_reference` (the one to read, with the arguments) with its candidate
     edges found by one compiled loop (a test holds them equal, bit for bit)."""
     cand, X, Z, low, high, crease = edge_candidates_loop(
-        _head_array(head),
-        _camera_array(rig),
+        head_array(head),
+        camera_array(rig),
         edges.corner_xy,
         edges.corner_normals,
         edges.corner_z,
@@ -417,11 +425,11 @@ def seen_runs_reference(
     edges: SceneEdges, head: HeadPose, cand: IntArray, low: FloatArray, high: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
     """:func:`seen_runs` in NumPy: the sight lines clipped to every part at once
-    (:func:`_blocked`), the hidden interval of each crossing, then per edge its longest run
+    (:func:`sight_blocked`), the hidden interval of each crossing, then per edge its longest run
     outside them (one interval: at once; more: :func:`_longest_run`)."""
     low, high = low.copy(), high.copy()
     Hh = head.height_m
-    line, part, t0, t1 = _blocked(edges, head, edges.corner_xy[cand])
+    line, part, t0, t1 = sight_blocked(edges, head, edges.corner_xy[cand])
     own = part == edges.corner_part[cand][line]
     # hidden heights: Hh + (s - Hh) / t over s in [z_min, z_max], t in [t0, t1]
     s = np.stack([edges.z_min[part], edges.z_max[part]], axis=1) - Hh  # (k, 2)
@@ -470,7 +478,7 @@ def seen_runs(
         edges.side_normal,
         edges.z_min,
         edges.z_max,
-        _PULL_BACK_M,
+        PULL_BACK_M,
     )
 
 
