@@ -26,7 +26,10 @@ The surrogate row: in every round, the same drive and seed through ``perception=
 (its steps per second over the stereo env's, per round, then the median). The training pair:
 the same drive through the env ``train.py`` builds (``StereoNav-v1``, ``memory=False``,
 ``diagnostics=False``) with each perception, ``train_stereo_env_*``, ``train_surrogate_env_*``
-and ``train_surrogate_over_stereo_steps_per_s``.
+and ``train_surrogate_over_stereo_steps_per_s``. Its two envs run side by side, in alternating
+blocks of 20 steps (each env its own drive and resets, as if alone), so that both are timed at
+the same moments: the machine's speed drifts by tens of percent within seconds, and a ratio of
+two envs timed one after the other moves with it.
 
 ``--baseline DIR`` compares this checkout's env with another checkout's (DIR, e.g. the code
 before a change) in one run: the rounds alternate between the two trees (this, DIR, DIR, this,
@@ -158,6 +161,41 @@ def drive_round(
     }
 
 
+def paired_drive(
+    steps: int,
+    seed: int,
+    env_id: str,
+    prefixes: tuple[str, str],
+    kwargs: tuple[dict[str, Any], dict[str, Any]],
+) -> dict[str, float]:
+    """``<prefix>env_step_ms`` and ``<prefix>env_steps_per_s`` of two envs (``gym.make(env_id,
+    **kwargs[k])``, figures named with ``prefixes[k]``), each driven ``steps`` timed steps, in
+    alternating blocks of :data:`BLOCK` steps (the same moments for both)."""
+    envs = [gym.make(env_id, **kw) for kw in kwargs]
+    step_ms: tuple[list[float], list[float]] = ([], [])
+    try:
+        for env in envs:
+            env.reset(seed=seed)
+            for i in range(5):
+                env.step(scripted_action(i))
+        for start in range(0, steps, BLOCK):
+            for env, times in zip(envs, step_ms, strict=True):
+                for i in range(start, min(start + BLOCK, steps)):
+                    t0 = time.perf_counter()
+                    _, _, terminated, truncated, _ = env.step(scripted_action(i))
+                    times.append((time.perf_counter() - t0) * 1e3)
+                    if terminated or truncated:
+                        env.reset()
+    finally:
+        for env in envs:
+            env.close()
+    out: dict[str, float] = {}
+    for prefix, times in zip(prefixes, step_ms, strict=True):
+        out[f"{prefix}env_step_ms"] = statistics.median(times)
+        out[f"{prefix}env_steps_per_s"] = 1e3 * len(times) / sum(times)
+    return out
+
+
 def surrogate_round(steps: int, seed: int) -> dict[str, float]:
     """The surrogate perception's figures of ``steps`` timed steps of the drive (the row's)."""
     return drive_round(steps, seed, "surrogate_", perception="surrogate")
@@ -174,15 +212,16 @@ def _with_surrogate(stereo: dict[str, float], steps: int, seed: int) -> dict[str
     out["surrogate_over_stereo_steps_per_s"] = (
         out["surrogate_env_steps_per_s"] / stereo["env_steps_per_s"]
     )
-    for perception in ("stereo", "surrogate"):
-        out |= drive_round(
-            steps,
-            seed,
-            f"train_{perception}_",
-            "StereoNav-v1",
-            perception=perception,
-            **TRAINING_KWARGS,
-        )
+    out |= paired_drive(
+        steps,
+        seed,
+        "StereoNav-v1",
+        ("train_stereo_", "train_surrogate_"),
+        (
+            {"perception": "stereo", **TRAINING_KWARGS},
+            {"perception": "surrogate", **TRAINING_KWARGS},
+        ),
+    )
     out["train_surrogate_over_stereo_steps_per_s"] = (
         out["train_surrogate_env_steps_per_s"] / out["train_stereo_env_steps_per_s"]
     )
