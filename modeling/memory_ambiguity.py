@@ -153,7 +153,9 @@ def reweight(
         gated_pairs(new_segments.ends, new_segments.cov, mem.stack.ends, mem.stack.cov, gate)
     )
     for k, seg in zip(
-        seg_pairs.cols.tolist(), fused_segments(mem.stack, new_segments, seg_pairs)[0], strict=True
+        seg_pairs.cols.tolist(),
+        fused_segments(mem.stack, new_segments, seg_pairs, min_var=opts.min_sigma_m**2)[0],
+        strict=True,
     ):
         cand[k] = seg
     ratio[seg_pairs.cols] = hit_ratio
@@ -175,7 +177,7 @@ def reweight(
         partner[chosen.rows] = chosen.cols
         matched_new[chosen.rows] = True
         cand_pairs = assign(subset(pairs, partner[new.owner[pairs.rows]] == mem.owner[pairs.cols]))
-        fused, _ = fused_segments(mem.stack, new.stack, cand_pairs)
+        fused, _ = fused_segments(mem.stack, new.stack, cand_pairs, min_var=opts.min_sigma_m**2)
         for k, seg in zip(cand_pairs.cols.tolist(), fused, strict=True):
             cand[k] = seg
         ratio[cand_pairs.cols] = 1.0 + new.prob[cand_pairs.rows] * (hit_ratio - 1.0)

@@ -10,7 +10,9 @@ the smaller distance counts; a pair is *gated* when it is at most the chi-square
 :func:`scipy.optimize.linear_sum_assignment` (most pairs first, then the smallest total
 distance). An associated pair fuses endpoint by endpoint as the product of Gaussians
 (:func:`gaussian_product`, information form; the new factor's information optionally weighted,
-for views that share errors with earlier ones).
+for views that share errors with earlier ones), its covariances raised to a floor in every
+direction when one is given (:func:`floored_covariances`: the part of a view's error that views
+share does not average away).
 
 Only the endpoint gate is used: a segment seen from a new viewpoint as a longer or shorter piece
 of the same edge (clipped by the image border or by an occluder) fails the gate at the clipped
@@ -42,6 +44,7 @@ __all__ = [
     "assign",
     "concat",
     "endpoint_distances",
+    "floored_covariances",
     "fused_segments",
     "fused_segments_reference",
     "gated_pairs",
@@ -330,14 +333,49 @@ def stack_of(segs: tuple[FloorSegment, ...] | list[FloorSegment]) -> SegmentStac
     )
 
 
+def floored_covariances(cov: FloatArray, min_var: float) -> FloatArray:
+    """``cov`` (..., 2, 2) with every variance below ``min_var`` (m^2) raised to it: the
+    eigenvalues of each symmetric 2x2 covariance clipped from below at ``min_var``, its
+    eigenvectors kept (the covariances above the floor are returned bit for bit); ``cov`` itself
+    when ``min_var`` is 0 or nothing is below it.
+
+    In closed form: with eigenvalues ``lo <= hi`` (mean ``m``, half-difference ``r``), a
+    covariance with ``lo < min_var <= hi`` becomes ``C + (min_var - lo) u u^T`` for its minor
+    axis ``u``, where ``u u^T = (hi I - C) / (2 r)``; one with ``hi < min_var`` (or ``r = 0``)
+    becomes ``min_var I``."""
+    flat = cov.reshape(-1, 2, 2)
+    if min_var <= 0.0 or flat.shape[0] == 0:
+        return cov
+    a, b, c = flat[:, 0, 0], flat[:, 0, 1], flat[:, 1, 1]
+    m, r = 0.5 * (a + c), np.hypot(0.5 * (a - c), b)
+    low = np.flatnonzero(m - r < min_var)
+    if low.shape[0] == 0:
+        return cov
+    out = flat.copy()
+    C, m, r = flat[low], m[low], r[low]
+    hi = m + r
+    thin = (hi >= min_var) & (r > 0.0)
+    k = np.where(thin, (min_var - (m - r)) / np.where(thin, 2.0 * r, 1.0), 0.0)
+    raised = C + k[:, None, None] * (hi[:, None, None] * np.eye(2) - C)
+    out[low] = np.where(thin[:, None, None], raised, min_var * np.eye(2))
+    return out.reshape(cov.shape)
+
+
 def fused_segments(
-    mem: SegmentStack, new: SegmentStack, pairs: Association, weight: FloatArray | None = None
+    mem: SegmentStack,
+    new: SegmentStack,
+    pairs: Association,
+    weight: FloatArray | None = None,
+    *,
+    min_var: float = 0.0,
 ) -> tuple[list[FloorSegment], SegmentStack]:
     """The remembered segments ``pairs.cols`` fused with the new ones ``pairs.rows`` (aligned by
     ``pairs.swapped``): the product of the endpoint Gaussians (the new one's information times
-    ``weight`` (k,), one per pair, when given), the larger heights, the new segment's source. One
-    segment per pair, in the pairs' order, and their arrays: :func:`fused_segments_reference`,
-    compiled (:func:`modeling._compiled.association.fuse_pairs`; the same results)."""
+    ``weight`` (k,), one per pair, when given; the product's variances raised to at least
+    ``min_var`` in every direction, :func:`floored_covariances`), the larger heights, the new
+    segment's source. One segment per pair, in the pairs' order, and their arrays:
+    :func:`fused_segments_reference`, compiled
+    (:func:`modeling._compiled.association.fuse_pairs`; the same results)."""
     rows, cols = pairs.rows, pairs.cols
     if rows.shape[0] == 0:
         return [], stack_of([])
@@ -353,6 +391,7 @@ def fused_segments(
         pairs.swapped,
         np.ones(rows.shape[0]) if weight is None else np.asarray(weight, dtype=np.float64),
     )
+    P = floored_covariances(P, min_var)
     src = new.source[rows]
     # rows of fresh arrays: each segment's arrays are views (made read-only), not copies
     segs = [
@@ -362,13 +401,18 @@ def fused_segments(
 
 
 def fused_segments_reference(
-    mem: SegmentStack, new: SegmentStack, pairs: Association, weight: FloatArray | None = None
+    mem: SegmentStack,
+    new: SegmentStack,
+    pairs: Association,
+    weight: FloatArray | None = None,
+    *,
+    min_var: float = 0.0,
 ) -> tuple[list[FloorSegment], SegmentStack]:
     """The remembered segments ``pairs.cols`` fused with the new ones ``pairs.rows`` (aligned by
     ``pairs.swapped``): the product of the endpoint Gaussians (the new one's information times
-    ``weight`` (k,), one per pair, when given), the larger heights, the new segment's source. One
-    segment per pair, in the pairs' order, and their arrays (the readable version of
-    :func:`fused_segments`)."""
+    ``weight`` (k,), one per pair, when given; the variances floored at ``min_var``), the larger
+    heights, the new segment's source. One segment per pair, in the pairs' order, and their
+    arrays (the readable version of :func:`fused_segments`)."""
     rows, cols, swapped = pairs.rows, pairs.cols, pairs.swapped
     if rows.shape[0] == 0:
         return [], stack_of([])
@@ -377,6 +421,7 @@ def fused_segments_reference(
     heights = np.where(swapped[:, None], new.heights[rows][:, ::-1], new.heights[rows])
     w = None if weight is None else np.repeat(np.asarray(weight)[:, None], 2, axis=1)
     mean, P = gaussian_product(mem.ends[cols], mem.cov[cols], ends, cov, w)
+    P = floored_covariances(P, min_var)
     top = np.maximum(mem.heights[cols], heights)
     src = new.source[rows]
     # rows of fresh arrays: each segment's arrays are views (made read-only), not copies

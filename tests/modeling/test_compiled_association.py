@@ -80,3 +80,32 @@ def test_compiled_fusion_equals_reference(seed: int, weighted: bool) -> None:
         np.testing.assert_array_equal(g.height_m, w.height_m)
         assert g.source == w.source
     assert np.all(want.heights >= mem.heights[pairs.cols])  # the larger heights
+
+
+def test_compiled_fusion_equals_reference_with_a_variance_floor() -> None:
+    rng = np.random.default_rng(7)
+    mem_ends, mem_cov = _segments(rng, 20)
+    new_ends, new_cov = _segments(rng, 12)
+    mem = SegmentStack(mem_ends, mem_cov, rng.uniform(0, 1, (20, 2)), np.arange(20))
+    new = SegmentStack(new_ends, new_cov, rng.uniform(0, 1, (12, 2)), np.arange(12) + 100)
+    pairs = Association(
+        rows=rng.permutation(12)[:8],
+        cols=rng.permutation(20)[:8],
+        d2=np.zeros(8),
+        swapped=rng.uniform(size=8) < 0.5,
+    )
+    _, plain = fused_segments(mem, new, pairs)
+    smallest = np.linalg.eigvalsh(plain.cov.reshape(-1, 2, 2))[:, 0]
+    floor = float(np.median(smallest))  # half the fused endpoints below it, half above
+    got_segs, got = fused_segments(mem, new, pairs, min_var=floor)
+    want_segs, want = fused_segments_reference(mem, new, pairs, min_var=floor)
+    for g, w in zip(got, want, strict=True):
+        np.testing.assert_array_equal(g, w)
+    for g, w in zip(got_segs, want_segs, strict=True):
+        np.testing.assert_array_equal(g.cov, w.cov)
+    flat, before = got.cov.reshape(-1, 2, 2), plain.cov.reshape(-1, 2, 2)
+    raised = smallest < floor
+    assert 0 < np.count_nonzero(raised) < raised.shape[0]
+    np.testing.assert_array_equal(flat[~raised], before[~raised])  # bit for bit
+    np.testing.assert_allclose(np.linalg.eigvalsh(flat)[:, 0], np.maximum(smallest, floor))
+    np.testing.assert_array_equal(got.ends, plain.ends)  # the means are the product's

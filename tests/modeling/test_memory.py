@@ -23,7 +23,7 @@ from modeling import (
     fuse,
 )
 from modeling.memory_ambiguity import candidates_of
-from modeling.memory_association import stack_of
+from modeling.memory_association import floored_covariances, stack_of
 
 PD, PF = 0.8, 0.05  # the default detection probability and false-match rate
 HIT, MISS = PD / PF, (1 - PD) / (1 - PF)  # the likelihood ratios of a detection and of a miss
@@ -65,6 +65,43 @@ def test_two_views_of_one_segment_fuse_to_the_product_of_gaussians() -> None:
     assert memory.existence == pytest.approx((posterior(0.5, HIT),), abs=1e-12)
     assert memory.views == 2 and memory.last_seen == (2,)
     np.testing.assert_array_equal(memory.fused_from, [[0.0, 0.6]])
+
+
+def test_floored_covariances_raise_the_minor_axis_only() -> None:
+    angle = 0.3
+    v = np.array([[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]])
+    thin = v @ np.diag([1e-6, 4e-4]) @ v.T  # 1 mm across, 2 cm along
+    wide = np.eye(2) * 1e-3
+    got = floored_covariances(np.stack([thin, wide]), 0.005**2)
+    np.testing.assert_allclose(got[0], v @ np.diag([0.005**2, 4e-4]) @ v.T, rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(got[1], wide)  # above the floor: unchanged, bit for bit
+    both_low = np.eye(2) * 1e-6
+    np.testing.assert_allclose(floored_covariances(both_low[None], 1e-4)[0], np.eye(2) * 1e-4)
+    np.testing.assert_array_equal(floored_covariances(np.stack([thin]), 0.0)[0], thin)
+
+
+def test_floored_covariances_equal_clipping_the_eigenvalues() -> None:
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(400, 2, 2)) * 0.01
+    cov = a @ a.transpose(0, 2, 1)
+    floor = float(np.median(np.linalg.eigvalsh(cov)[:, 0]))
+    w, v = np.linalg.eigh(cov)
+    want = np.einsum("kij,kj,klj->kil", v, np.maximum(w, floor), v)
+    np.testing.assert_allclose(floored_covariances(cov, floor), want, rtol=0, atol=1e-17)
+
+
+def test_many_views_of_one_segment_stop_narrowing_at_min_sigma() -> None:
+    cov = np.tile(np.diag([0.01**2, 0.03**2]), (2, 1, 1))
+    memory, floored = ModelMemory.empty(), ModelMemory.empty()
+    for k in range(40):  # independent views: viewpoints 0.6 m apart
+        obs = view((seg((3.0, -0.5), (3.0, 0.5), cov),), at=(0.0, 0.6 * k, 0.0))
+        memory, floored = fuse(memory, obs), fuse(floored, obs, min_sigma_m=0.004)
+    assert len(memory.segments) == len(floored.segments) == 1
+    plain = np.linalg.eigvalsh(memory.segments[0].cov)
+    np.testing.assert_allclose(plain[:, 0], 0.01**2 / 40, rtol=1e-9)  # the product: 1.6 mm
+    low = np.linalg.eigvalsh(floored.segments[0].cov)
+    np.testing.assert_allclose(low[:, 0], 0.004**2, rtol=1e-9)  # held at the floor
+    np.testing.assert_allclose(low[:, 1], plain[:, 1], rtol=1e-6)  # along: still the product
 
 
 @pytest.mark.parametrize(
