@@ -141,38 +141,18 @@ def drive_round(
 ) -> dict[str, float]:
     """``<prefix>env_step_ms`` and ``<prefix>env_steps_per_s`` of ``steps`` timed steps of the
     drive in ``gym.make(env_id, **kwargs)`` (a row beside the stereo env's)."""
-    env = gym.make(env_id, **kwargs)
-    step_ms: list[float] = []
-    try:
-        env.reset(seed=seed)
-        for i in range(5):
-            env.step(scripted_action(i))
-        for i in range(steps):
-            t0 = time.perf_counter()
-            _, _, terminated, truncated, _ = env.step(scripted_action(i))
-            step_ms.append((time.perf_counter() - t0) * 1e3)
-            if terminated or truncated:
-                env.reset()
-    finally:
-        env.close()
-    return {
-        f"{prefix}env_step_ms": statistics.median(step_ms),
-        f"{prefix}env_steps_per_s": 1e3 * len(step_ms) / sum(step_ms),
-    }
+    return side_by_side(steps, seed, env_id, {prefix: kwargs})
 
 
-def paired_drive(
-    steps: int,
-    seed: int,
-    env_id: str,
-    prefixes: tuple[str, str],
-    kwargs: tuple[dict[str, Any], dict[str, Any]],
+def side_by_side(
+    steps: int, seed: int, env_id: str, rows: dict[str, dict[str, Any]]
 ) -> dict[str, float]:
-    """``<prefix>env_step_ms`` and ``<prefix>env_steps_per_s`` of two envs (``gym.make(env_id,
-    **kwargs[k])``, figures named with ``prefixes[k]``), each driven ``steps`` timed steps, in
-    alternating blocks of :data:`BLOCK` steps (the same moments for both)."""
-    envs = [gym.make(env_id, **kw) for kw in kwargs]
-    step_ms: tuple[list[float], list[float]] = ([], [])
+    """``<prefix>env_step_ms`` and ``<prefix>env_steps_per_s`` of one env per ``rows`` entry
+    (``prefix: kwargs``, the env ``gym.make(env_id, **kwargs)``), each driven ``steps`` timed
+    steps of the drive (its own resets), the envs in turn for :data:`BLOCK` steps at a time (the
+    same moments for all)."""
+    envs = [gym.make(env_id, **kw) for kw in rows.values()]
+    step_ms: list[list[float]] = [[] for _ in envs]
     try:
         for env in envs:
             env.reset(seed=seed)
@@ -190,7 +170,7 @@ def paired_drive(
         for env in envs:
             env.close()
     out: dict[str, float] = {}
-    for prefix, times in zip(prefixes, step_ms, strict=True):
+    for prefix, times in zip(rows, step_ms, strict=True):
         out[f"{prefix}env_step_ms"] = statistics.median(times)
         out[f"{prefix}env_steps_per_s"] = 1e3 * len(times) / sum(times)
     return out
@@ -212,15 +192,11 @@ def _with_surrogate(stereo: dict[str, float], steps: int, seed: int) -> dict[str
     out["surrogate_over_stereo_steps_per_s"] = (
         out["surrogate_env_steps_per_s"] / stereo["env_steps_per_s"]
     )
-    out |= paired_drive(
+    out |= side_by_side(
         steps,
         seed,
         "StereoNav-v1",
-        ("train_stereo_", "train_surrogate_"),
-        (
-            {"perception": "stereo", **TRAINING_KWARGS},
-            {"perception": "surrogate", **TRAINING_KWARGS},
-        ),
+        {f"train_{p}_": {"perception": p, **TRAINING_KWARGS} for p in ("stereo", "surrogate")},
     )
     out["train_surrogate_over_stereo_steps_per_s"] = (
         out["train_surrogate_env_steps_per_s"] / out["train_stereo_env_steps_per_s"]

@@ -54,10 +54,8 @@ def test_compiled_gate_with_nothing_to_pair() -> None:
     assert gated_pairs(far, cov, ends, cov, 13.28).rows.shape[0] == 0
 
 
-@pytest.mark.parametrize("weighted", [False, True])
-@pytest.mark.parametrize("seed", range(4))
-def test_compiled_fusion_equals_reference(seed: int, weighted: bool) -> None:
-    rng = np.random.default_rng(100 + seed)
+def _fusion_inputs(rng: np.random.Generator) -> tuple[SegmentStack, SegmentStack, Association]:
+    """20 remembered and 12 new random segments, and 8 random pairs of them."""
     mem_ends, mem_cov = _segments(rng, 20)
     new_ends, new_cov = _segments(rng, 12)
     mem = SegmentStack(mem_ends, mem_cov, rng.uniform(0, 1, (20, 2)), np.arange(20))
@@ -68,6 +66,14 @@ def test_compiled_fusion_equals_reference(seed: int, weighted: bool) -> None:
         d2=np.zeros(8),
         swapped=rng.uniform(size=8) < 0.5,
     )
+    return mem, new, pairs
+
+
+@pytest.mark.parametrize("weighted", [False, True])
+@pytest.mark.parametrize("seed", range(4))
+def test_compiled_fusion_equals_reference(seed: int, weighted: bool) -> None:
+    rng = np.random.default_rng(100 + seed)
+    mem, new, pairs = _fusion_inputs(rng)
     weight = rng.uniform(0.5, 1.0, 8) if weighted else None
     got_segs, got = fused_segments(mem, new, pairs, weight)
     want_segs, want = fused_segments_reference(mem, new, pairs, weight)
@@ -84,16 +90,7 @@ def test_compiled_fusion_equals_reference(seed: int, weighted: bool) -> None:
 
 def test_compiled_fusion_equals_reference_with_a_variance_floor() -> None:
     rng = np.random.default_rng(7)
-    mem_ends, mem_cov = _segments(rng, 20)
-    new_ends, new_cov = _segments(rng, 12)
-    mem = SegmentStack(mem_ends, mem_cov, rng.uniform(0, 1, (20, 2)), np.arange(20))
-    new = SegmentStack(new_ends, new_cov, rng.uniform(0, 1, (12, 2)), np.arange(12) + 100)
-    pairs = Association(
-        rows=rng.permutation(12)[:8],
-        cols=rng.permutation(20)[:8],
-        d2=np.zeros(8),
-        swapped=rng.uniform(size=8) < 0.5,
-    )
+    mem, new, pairs = _fusion_inputs(rng)
     _, plain = fused_segments(mem, new, pairs)
     smallest = np.linalg.eigvalsh(plain.cov.reshape(-1, 2, 2))[:, 0]
     floor = float(np.median(smallest))  # half the fused endpoints below it, half above
