@@ -1,7 +1,7 @@
 """Where an agent's collisions come from: every contact of the suite with what was hit and how.
 
     python scripts/collision_report.py --agent NAME [--episodes N] [--seed S] [--json FILE]
-        [--families F [F ...]] [--max-steps N]
+        [--families F [F ...]] [--max-steps N] [--memory]
 
 Runs the suite of ``scripts/evaluate.py`` (the same env and episodes) with one agent and records,
 for every step with a contact (``info["collision"]``, the suite's collision steps), the obstacle
@@ -13,8 +13,12 @@ For the model-based agents (``greedy``, ``cautious``, ``planner``) also what the
 (:class:`agents.gridmap.OccupancyMemory`) knew of the contact point: ``held_before`` (a cell
 within 0.2 m of it counted as an obstacle just before the step) and ``ever_held`` (one had had
 positive log-odds at some earlier step of the episode: held, then cleared, when not
-``held_before``). Prints counts by family and kind, and of the first contacts (no contact in
-the 10 steps before) how many the map had ever held; the JSON has every collision step.
+``held_before``). With ``--memory`` (the env keeps its fused memory, which the agents do not
+read: the same episodes) also ``fused_distance_m``, the distance from the contact point to the
+nearest segment of the env's fused memory (:class:`modeling.memory.ModelMemory`, existence at
+least 0.5) just before the step (null when it held none). Prints counts by family and kind,
+and of the first contacts (no contact in the 10 steps before) how many the map had ever held
+and how many the fused memory held within 0.1 m; the JSON has every collision step.
 """
 
 from __future__ import annotations
@@ -64,6 +68,26 @@ def _cells_near(spec: Any, point: np.ndarray, radius_m: float) -> np.ndarray:
     return near
 
 
+FUSED_EXISTENCE = 0.5
+"""A fused segment at least this probable counts as held (``--memory``)."""
+
+FUSED_NEAR_M = 0.1
+"""A contact the fused memory held: a held segment within this of the contact point, metres."""
+
+
+def _fused_distance(memory: Any, point: np.ndarray) -> float:
+    """Distance from ``point`` to the nearest segment of ``memory`` (a ``ModelMemory``) at least
+    :data:`FUSED_EXISTENCE` probable, metres (infinite when it holds none)."""
+    lines = [
+        shapely.LineString(s.endpoints) if s.length_m > 0 else shapely.Point(s.endpoints[0])
+        for s, e in zip(memory.segments, memory.existence, strict=True)
+        if e >= FUSED_EXISTENCE
+    ]
+    if not lines:
+        return math.inf
+    return float(shapely.distance(shapely.Point(point), lines).min())
+
+
 def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     """Parse the arguments, run the suite, print and write the contacts."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -77,15 +101,19 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     parser.add_argument(
         "--perception", choices=("stereo", "surrogate"), default="stereo", help="the perception"
     )
+    parser.add_argument(
+        "--memory", action="store_true", help="also what the env's fused memory held (see above)"
+    )
     args = parser.parse_args(argv)
     suite_args = ["--agent", args.agent, "--json", "-"]
     suite_args += ["--episodes", str(args.episodes), "--seed", str(args.seed)]
     suite_args += ["--max-steps", str(args.max_steps), "--perception", args.perception]
     cfg = suite_config(suite_args + (["--families", *args.families] if args.families else []))
+    env_kwargs = cfg.env_kwargs | ({"memory": True} if args.memory else {})
 
     contacts: list[dict[str, Any]] = []
     for spec in suite_episodes(cfg):
-        env = gym.make(ENV_ID, scenario=spec.family, **cfg.env_kwargs)
+        env = gym.make(ENV_ID, scenario=spec.family, **env_kwargs)
         agent = make_agent(args.agent)
         obs, info = env.reset(seed=spec.seed)
         agent.reset(env, seed=spec.seed)
@@ -100,6 +128,7 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
         for step in range(cfg.max_steps):
             state = world.state
             poses.append((state.x_m, state.y_m, state.heading_rad + state.pan_rad))
+            fused = base.memory  # before the step (None without --memory)
             core = getattr(agent, "core", None)
             occupied = None if core is None else core.memory.occupied()
             if core is not None:
@@ -129,6 +158,9 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
                     "views_in_range": _views_of(point, poses, half_fov, band),
                 }
             )
+            if fused is not None:
+                dist = _fused_distance(fused, point)
+                contacts[-1]["fused_distance_m"] = dist if math.isfinite(dist) else None
             if core is not None and occupied is not None and most is not None:
                 near = _cells_near(core.spec, point, 0.2)
                 contacts[-1]["held_before"] = bool(occupied[near].any())
@@ -160,6 +192,15 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
         print(
             f"  first contacts {len(first)}: the map ever held {ever} "
             f"(held just before {before}), never held {len(first) - ever}"
+        )
+    if first and "fused_distance_m" in first[0]:
+        held = sum(
+            c["fused_distance_m"] is not None and c["fused_distance_m"] <= FUSED_NEAR_M
+            for c in first
+        )
+        print(
+            f"  first contacts {len(first)}: the fused memory held {held} within "
+            f"{FUSED_NEAR_M} m just before, not {len(first) - held}"
         )
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
