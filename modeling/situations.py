@@ -7,7 +7,7 @@ segments may be no obstacle (``AmbiguousSegment.p_none > 0``) has the choice "no
 probability ``p_none`` and no item; ``Situation.choice`` maps its members to ``-1`` then.
 
 * *Partition*: its obstacles are the connected components of impassable relations among its
-  items, numbered in the order of their smallest item (:func:`_partition`).
+  items, numbered in the order of their smallest item (:func:`_partitions`).
 * *Critical regions*: between two obstacles, all undecided relations form one
   :class:`~modeling.records.CriticalRegion` (convex hull of the relation endpoints) whose width
   distribution is that of its narrowest (least passable) relation. Undecided relations inside one
@@ -22,7 +22,10 @@ probability ``p_none`` and no item; ``Situation.choice`` maps its members to ``-
 
 Situations share most obstacles and region polygons (they differ by a few candidates): a
 :class:`_Context` builds each once, identified by its items or relation rows, and caches the
-width moments per relation row.
+width moments per relation row. The partitions of all situations are made in one pass over
+(situation, relation) arrays, and their regions and passages in one more: a fused model holds
+tens of situations, and per-situation NumPy calls on a few hundred relations cost more than
+the work they do (a property test holds the situations made together equal to each made alone).
 
 Frames: world, metres; probabilities in [0, 1].
 """
@@ -106,7 +109,7 @@ def enumerate_situations(
 class _Partition:
     """What one situation's active items make: obstacles, and relation rows between them.
 
-    Computed for every situation first (:func:`_partition`), so that the obstacles and region
+    Computed for every situation first (:func:`_partitions`), so that the obstacles and region
     polygons that no earlier situation built are built for all situations in one batch
     (:meth:`_Context.prepare`) before the situations are assembled (:func:`_situations`).
 
@@ -117,11 +120,10 @@ class _Partition:
         bounds: Where each obstacle's items start in ``items`` (n_obst + 1 entries).
         imp_rows: (q,) rows of the impassable relations inside obstacles (ascending).
         link_obst: (q,) obstacle of each of those rows.
-        oi: (m,) obstacle of each relation's first item (-1: inactive).
-        oj: (m,) obstacle of each relation's second item.
-        und: Undecided rows between obstacles grouped by pair (see :func:`_pair_groups`).
+        und: Undecided rows between obstacles grouped by pair, the narrowest (least passable)
+            first in each group: ``(rows, starts, lo, hi)``, the sorted rows, the start of
+            each group in them, and the group's obstacle pair ``lo < hi``.
         region_rows: The rows of each group of ``und``.
-        pas_rows: (p,) short passable rows between obstacles (ascending).
         obstacles: Its :class:`Obstacle` records, and
         region_polygons: the polygon of each group of ``und``, both set by
             :meth:`_Context.prepare`.
@@ -135,9 +137,6 @@ class _Partition:
         "link_obst",
         "n_obst",
         "obstacles",
-        "oi",
-        "oj",
-        "pas_rows",
         "region_polygons",
         "region_rows",
         "und",
@@ -150,10 +149,7 @@ class _Partition:
         counts: np.ndarray,
         imp_rows: np.ndarray,
         link_obst: np.ndarray,
-        oi: np.ndarray,
-        oj: np.ndarray,
         und: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-        pas_rows: np.ndarray,
     ) -> None:
         self.n_obst = int(counts.shape[0])
         self.items = items
@@ -161,13 +157,10 @@ class _Partition:
         self.bounds = [0, *np.cumsum(counts).tolist()]
         self.imp_rows = imp_rows
         self.link_obst = link_obst
-        self.oi = oi
-        self.oj = oj
         self.und = und
         rows, starts = und[0], und[1]
         stops = [*starts[1:].tolist(), rows.shape[0]] if starts.shape[0] else []
         self.region_rows = [rows[s0:s1] for s0, s1 in zip(starts.tolist(), stops, strict=True)]
-        self.pas_rows = pas_rows
         self.obstacles: list[Obstacle] = []
         self.region_polygons: list[FloatArray] = []
 
@@ -283,166 +276,197 @@ class _Context:
         return self.width_mean[rows].tolist(), self.width_std[rows].tolist()
 
 
-def _oriented(ctx: _Context, rows: np.ndarray, i_first: np.ndarray) -> FloatArray:
-    """(k, 2, 2) closest points of relation rows, the point on the lower-index obstacle first."""
-    out: FloatArray = ctx.links[rows]
-    out[~i_first] = out[~i_first, ::-1]
-    out.setflags(write=False)
+def _groups(
+    mask: np.ndarray, oi: np.ndarray, oj: np.ndarray, within: FloatArray, span: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Relation rows of every situation grouped by (situation, obstacle pair), each group
+    sorted by ``within`` (ascending; ties in row order).
+
+    Args:
+        mask: (S, m) the relations of each situation to group.
+        oi, oj: (S, m) obstacle of each relation's items in each situation.
+        within: (m,) the order within a group.
+        span: More than any obstacle number.
+
+    Returns:
+        ``(rows, starts, s, lo, hi)``: the sorted rows, the start of each group in them, and
+        the group's situation and obstacle pair ``lo < hi``.
+    """
+    s, rows = mask.nonzero()  # situation-major, then by row
+    if rows.shape[0] == 0:
+        return rows, rows, s, rows, rows
+    a, b = oi[mask], oj[mask]
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    key = (s * span + lo) * span + hi  # ordered as (situation, lo, hi)
+    srt = np.lexsort((within[rows], key))
+    rows, key = rows[srt], key[srt]
+    new = np.ones(rows.shape[0], dtype=bool)
+    np.not_equal(key[1:], key[:-1], out=new[1:])
+    starts = new.nonzero()[0]
+    return rows, starts, s[srt][starts], lo[srt][starts], hi[srt][starts]
+
+
+def _bounds(s: np.ndarray, n: int) -> list[int]:
+    """Where each of situations ``0 .. n - 1`` starts in the ascending ``s`` (n + 1 entries)."""
+    if n == 1:
+        return [0, int(s.shape[0])]
+    out: list[int] = np.searchsorted(s, np.arange(n + 1)).tolist()
     return out
 
 
-def _pair_groups(
-    rows: np.ndarray, oi: np.ndarray, oj: np.ndarray, n_obst: int, within: FloatArray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Relation rows grouped by obstacle pair, each group sorted by ``within`` (ascending).
+def _partitions(ctx: _Context, actives: list[np.ndarray]) -> tuple[list[_Partition], _Groups]:
+    """Obstacles of each situation whose items are ``actives``, and its relations between them:
+    all situations in one pass over (situations, relations) arrays.
 
-    Returns:
-        ``(rows, starts, lo, hi)``: the sorted rows, the start of each group in them, and the
-        group's obstacle pair ``lo < hi``.
-    """
-    a, b = oi[rows], oj[rows]
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    key = lo * (n_obst + 1) + hi
-    srt = np.lexsort((within[rows], key))
-    rows, key = rows[srt], key[srt]
-    starts = np.concatenate(([True], key[1:] != key[:-1])).nonzero()[0]
-    return rows, starts, lo[srt][starts], hi[srt][starts]
-
-
-def _obstacle_labels(ctx: _Context, actives: list[np.ndarray]) -> list[np.ndarray]:
-    """For each situation (its active items), the component label of each item: the smallest
-    item of its obstacle (a component of the impassable relations among its active items).
-
-    All situations are labelled in one call: situation ``k``'s item ``x`` is node ``k N + x`` of
-    one graph, so no component spans two situations and its smallest node is ``k N`` plus the
-    smallest item.
+    A situation's obstacles are the components of the impassable relations among its active
+    items, numbered in the order of their smallest item. All situations are labelled by one
+    call: situation ``k``'s item ``x`` is node ``k N + x`` of one graph, so no component spans
+    two situations and its smallest node is ``k N`` plus the smallest item.
     """
     rel = ctx.rel
-    n = ctx.ends.shape[0]
-    rows = [(active[rel.i] & active[rel.j] & ctx.is_imp).nonzero()[0] for active in actives]
-    shift = [np.full(r.shape[0], k * n, dtype=np.int64) for k, r in enumerate(rows)]
-    i = np.concatenate([rel.i[r] for r in rows]) + np.concatenate(shift)
-    j = np.concatenate([rel.j[r] for r in rows]) + np.concatenate(shift)
-    labels = components(len(actives) * n, i, j).reshape(len(actives), n)
-    return list(labels - n * np.arange(len(actives))[:, None])
-
-
-def _partition(ctx: _Context, active: np.ndarray, labels: np.ndarray) -> _Partition:
-    """Obstacles of the situation whose items are ``active``, and its relations between them.
-
-    Args:
-        ctx: The model's context.
-        active: (N,) the situation's items.
-        labels: (N,) their obstacle labels (see :func:`_obstacle_labels`).
-    """
-    rel = ctx.rel
-    n = active.shape[0]
-    both = active[rel.i] & active[rel.j]
-    imp_rows = (both & ctx.is_imp).nonzero()[0]
-    act_idx = active.nonzero()[0]
-    # Obstacles numbered in order of their smallest item (a component's label): the roots (the
-    # active items that are their own label) in ascending order.
-    act_labels = labels[act_idx]
-    roots = act_idx[act_labels == act_idx]
-    obst_of_root = np.empty(n, dtype=np.int64)
-    obst_of_root[roots] = np.arange(roots.shape[0])
-    obst_active = obst_of_root[act_labels]
-    obst_of_item = np.full(n, -1, dtype=np.int64)
-    obst_of_item[act_idx] = obst_active
-    oi = obst_of_item[rel.i]
-    oj = obst_of_item[rel.j]
+    act = actives[0][None] if len(actives) == 1 else np.stack(actives)  # (S, N)
+    n_sit, n = act.shape
+    both = act[:, rel.i] & act[:, rel.j]  # (S, m)
+    imp = both & ctx.is_imp
+    s_imp, imp_rows = imp.nonzero()
+    shift = s_imp * n
+    labels = components(n_sit * n, rel.i[imp_rows] + shift, rel.j[imp_rows] + shift)
+    # obstacles numbered by their roots (the active items that are their own label), ascending
+    roots = act & (labels == np.arange(n_sit * n)).reshape(n_sit, n)
+    n_obst = roots.sum(axis=1)
+    rank = (np.cumsum(roots, axis=1) - 1).reshape(-1)[labels].reshape(n_sit, n)
+    obst = np.where(act, rank, -1)
+    oi, oj = obst[:, rel.i], obst[:, rel.j]  # (S, m)
     between = both & (oi != oj)
-    n_obst = roots.shape[0]
-    und_rows = (between & ctx.is_und).nonzero()[0]
-    # The narrowest relation of a region is its least passable one (first in its group).
-    und = (
-        _pair_groups(und_rows, oi, oj, n_obst, rel.p_passable)
-        if und_rows.shape[0]
-        else (und_rows, und_rows, und_rows, und_rows)
+    # the active items by (situation, obstacle, item); items per obstacle
+    s_it, it = act.nonzero()
+    ob_it = obst[act]
+    items = it[np.lexsort((ob_it, s_it))]
+    first_obst = np.zeros(n_sit + 1, dtype=np.int64)  # where each situation's obstacles start
+    np.cumsum(n_obst, out=first_obst[1:])
+    counts = np.bincount(first_obst[s_it] + ob_it, minlength=int(first_obst[-1]))
+    link_obst = oi[imp]
+    # the undecided rows between obstacles: their narrowest (least passable) first
+    span = int(n_obst.max()) + 1
+    und = _groups(between & ctx.is_und, oi, oj, rel.p_passable, span)
+    # the short passable rows between obstacles: the narrowest first
+    pas = _groups(between & ctx.is_short_pas, oi, oj, rel.distance_m, span)
+    at_item, at_imp, at_group = _bounds(s_it, n_sit), _bounds(s_imp, n_sit), _bounds(und[2], n_sit)
+    at_row = (
+        [0, int(und[0].shape[0])]
+        if n_sit == 1
+        else np.append(und[1], und[0].shape[0])[at_group].tolist()
     )
-    return _Partition(
-        items=act_idx[np.argsort(obst_active, kind="stable")],
-        counts=np.bincount(obst_active, minlength=n_obst),
-        imp_rows=imp_rows,
-        link_obst=obst_of_item[rel.i[imp_rows]],
-        oi=oi,
-        oj=oj,
-        und=und,
-        pas_rows=(between & ctx.is_short_pas).nonzero()[0],
-    )
+    parts = []
+    for k in range(n_sit):
+        r0, r1, g0, g1 = at_row[k], at_row[k + 1], at_group[k], at_group[k + 1]
+        parts.append(
+            _Partition(
+                items=items[at_item[k] : at_item[k + 1]],
+                counts=counts[first_obst[k] : first_obst[k + 1]],
+                imp_rows=imp_rows[at_imp[k] : at_imp[k + 1]],
+                link_obst=link_obst[at_imp[k] : at_imp[k + 1]],
+                und=(und[0][r0:r1], und[1][g0:g1] - r0, und[3][g0:g1], und[4][g0:g1]),
+            )
+        )
+    return parts, _Groups(oi=oi, oj=oj, und=und, pas=pas)
 
 
-def _regions(ctx: _Context, part: _Partition) -> list[CriticalRegion]:
-    """One critical region per obstacle pair with undecided relations between them.
+class _Groups:
+    """The relation groups of all situations (:func:`_groups` of the undecided and of the short
+    passable rows), and each relation's obstacles in each situation."""
 
-    Args:
-        ctx: The model's context (region polygons already built by :meth:`_Context.prepare`).
-        part: The situation's partition.
-    """
-    rows, starts, ra, rb = part.und
+    __slots__ = ("oi", "oj", "pas", "und")
+
+    def __init__(
+        self,
+        *,
+        oi: np.ndarray,
+        oj: np.ndarray,
+        und: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+        pas: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    ) -> None:
+        self.oi, self.oj, self.und, self.pas = oi, oj, und, pas
+
+
+def _narrowest_points(
+    ctx: _Context, groups: _Groups, rows: np.ndarray, s: np.ndarray
+) -> list[FloatArray]:
+    """(2, 2) closest points of each of relation ``rows`` (of situations ``s``), the point on the
+    lower-index obstacle first (read-only views of one array)."""
+    out: FloatArray = ctx.links[rows]
+    flip = groups.oi[s, rows] > groups.oj[s, rows]
+    out[flip] = out[flip, ::-1]
+    out.setflags(write=False)
+    return list(out)
+
+
+def _regions(ctx: _Context, parts: list[_Partition], groups: _Groups) -> list[list[CriticalRegion]]:
+    """Each situation's critical regions: one per obstacle pair with undecided relations
+    between them (region polygons already built by :meth:`_Context.prepare`)."""
+    rows, starts, s, lo, hi = groups.und
+    out: list[list[CriticalRegion]] = [[] for _ in parts]
     if rows.size == 0:
-        return []
+        return out
     rel = ctx.rel
-    oi, oj = part.oi, part.oj
     stops = [*starts[1:].tolist(), rows.shape[0]]
     narrowest = rows[starts]
-    polys = part.region_polygons
     w_mean, w_std = ctx.moments(narrowest)
-    narrow_pts = list(_oriented(ctx, narrowest, oi[narrowest] <= oj[narrowest]))
+    narrow_pts = _narrowest_points(ctx, groups, narrowest, s)
     rel_lines = ctx.links[rows]
     rel_lines.setflags(write=False)
     rows_list = rows.tolist()
-    return [
-        CriticalRegion(
-            obstacles=(a_, b_),
-            polygon=poly,
-            width_mean_m=wm,
-            width_std_m=ws,
-            p_passable=p_,
-            narrowest=nw,
-            relations=tuple(rows_list[s0:s1]),
-            relation_lines=rel_lines[s0:s1],
+    polygons = iter([poly for part in parts for poly in part.region_polygons])
+    for k, a_, b_, wm, ws, p_, nw, s0, s1 in zip(
+        s.tolist(),
+        lo.tolist(),
+        hi.tolist(),
+        w_mean,
+        w_std,
+        rel.p_passable[narrowest].tolist(),
+        narrow_pts,
+        starts.tolist(),
+        stops,
+        strict=True,
+    ):
+        out[k].append(
+            CriticalRegion(
+                obstacles=(a_, b_),
+                polygon=next(polygons),
+                width_mean_m=wm,
+                width_std_m=ws,
+                p_passable=p_,
+                narrowest=nw,
+                relations=tuple(rows_list[s0:s1]),
+                relation_lines=rel_lines[s0:s1],
+            )
         )
-        for a_, b_, poly, wm, ws, p_, nw, s0, s1 in zip(
-            ra.tolist(),
-            rb.tolist(),
-            polys,
-            w_mean,
-            w_std,
-            rel.p_passable[narrowest].tolist(),
-            narrow_pts,
-            starts.tolist(),
-            stops,
-            strict=True,
-        )
-    ]
+    return out
 
 
-def _passages(ctx: _Context, part: _Partition) -> list[Passage]:
-    """The narrowest passage per obstacle pair among the situation's short passable relations.
-
-    Args: as :func:`_regions`.
-    """
-    rows = part.pas_rows
+def _passages(ctx: _Context, n_sit: int, groups: _Groups) -> list[list[Passage]]:
+    """Each situation's passages: the narrowest per obstacle pair among its short passable
+    relations."""
+    rows, starts, s, lo, hi = groups.pas
+    out: list[list[Passage]] = [[] for _ in range(n_sit)]
     if rows.size == 0:
-        return []
+        return out
     rel = ctx.rel
-    oi, oj = part.oi, part.oj
-    rows, starts, ra, rb = _pair_groups(rows, oi, oj, part.n_obst, rel.distance_m)
     first = rows[starts]
-    narrow_pts = list(_oriented(ctx, first, oi[first] <= oj[first]))
-    return [
-        Passage(obstacles=(a_, b_), narrowest=nw, width_mean_m=d_, p_passable=p_, relation=r0)
-        for a_, b_, nw, d_, p_, r0 in zip(
-            ra.tolist(),
-            rb.tolist(),
-            narrow_pts,
-            rel.distance_m[first].tolist(),
-            rel.p_passable[first].tolist(),
-            first.tolist(),
-            strict=True,
+    for k, a_, b_, nw, d_, p_, r0 in zip(
+        s.tolist(),
+        lo.tolist(),
+        hi.tolist(),
+        _narrowest_points(ctx, groups, first, s),
+        rel.distance_m[first].tolist(),
+        rel.p_passable[first].tolist(),
+        first.tolist(),
+        strict=True,
+    ):
+        out[k].append(
+            Passage(obstacles=(a_, b_), narrowest=nw, width_mean_m=d_, p_passable=p_, relation=r0)
         )
-    ]
+    return out
 
 
 def _situations(
@@ -455,21 +479,26 @@ def _situations(
     """Obstacles, critical regions and passages of each situation whose items are ``actives``.
 
     Three passes: the partitions of all situations, then one batch for every obstacle and region
-    polygon not cached yet, then the situations (their width moments in situation order).
+    polygon not cached yet, then the situations' regions and passages, all situations at once.
     """
-    labels = _obstacle_labels(ctx, actives)
-    parts = [_partition(ctx, a, lab) for a, lab in zip(actives, labels, strict=True)]
+    if not actives:
+        return []
+    parts, groups = _partitions(ctx, actives)
     ctx.prepare(parts)
+    regions = _regions(ctx, parts, groups)
+    passages = _passages(ctx, len(parts), groups)
     return [
         Situation(
             probability=float(probability),
             obstacles=tuple(part.obstacles),
-            critical_regions=tuple(_regions(ctx, part)),
+            critical_regions=tuple(r),
             choice=dict(sorted(choice.items())),
-            passages=tuple(_passages(ctx, part)),
+            passages=tuple(ps),
             robot_width_m=robot_width_m,
         )
-        for part, probability, choice in zip(parts, probabilities, choices, strict=True)
+        for part, probability, choice, r, ps in zip(
+            parts, probabilities, choices, regions, passages, strict=True
+        )
     ]
 
 

@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import modeling.situations as situations_module
 from modeling.gaps import gap_passable_probability
 from modeling.model import build_model
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
+from modeling.records import Situation
 
 W = 0.5
 
@@ -174,6 +177,47 @@ def test_obstacles_partition_the_kept_items(obs: FloorObservation) -> None:
             i, j = reg.obstacles
             assert 0 <= i < j < len(s.obstacles)
             assert 0.0 <= reg.p_passable <= 1.0
+
+
+def _situation_record(s: Situation) -> list[object]:
+    """Every field of a situation's obstacles, critical regions and passages, arrays as bytes."""
+
+    def fields(record: object) -> tuple[object, ...]:
+        values = (getattr(record, f) for f in record.__dataclass_fields__)  # type: ignore[attr-defined]
+        return tuple(v.tobytes() if isinstance(v, np.ndarray) else v for v in values)
+
+    return [
+        s.probability,
+        s.choice,
+        [fields(o) for o in s.obstacles],
+        [fields(r) for r in s.critical_regions],
+        [fields(p) for p in s.passages],
+    ]
+
+
+@SETTINGS
+@given(observations(), st.integers(2, 12))
+def test_situations_assembled_together_equal_each_assembled_alone(
+    obs: FloorObservation, k: int
+) -> None:
+    # the situations are partitioned in one pass over all of them: none may see another's items
+    calls: list[tuple[Any, ...]] = []
+    batched = situations_module._situations
+
+    def recording(*args: Any) -> list[Situation]:
+        calls.append(args)
+        return batched(*args)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(situations_module, "_situations", recording)
+        together = build_model(obs, W, max_situations=k).situations
+    ctx, actives, probabilities, choices, width = calls[0]
+    alone = [
+        batched(ctx, [a], [p], [c], width)[0]
+        for a, p, c in zip(actives, probabilities, choices, strict=True)
+    ]
+    alone.sort(key=lambda s: -s.probability)  # as enumerate_situations orders them
+    assert [_situation_record(s) for s in together] == [_situation_record(s) for s in alone]
 
 
 @SETTINGS
