@@ -120,10 +120,8 @@ class _Partition:
         bounds: Where each obstacle's items start in ``items`` (n_obst + 1 entries).
         imp_rows: (q,) rows of the impassable relations inside obstacles (ascending).
         link_obst: (q,) obstacle of each of those rows.
-        und: Undecided rows between obstacles grouped by pair, the narrowest (least passable)
-            first in each group: ``(rows, starts, lo, hi)``, the sorted rows, the start of
-            each group in them, and the group's obstacle pair ``lo < hi``.
-        region_rows: The rows of each group of ``und``.
+        region_rows: The undecided rows between each pair of its obstacles that have any, the
+            narrowest (least passable) first: one critical region each.
         obstacles: Its :class:`Obstacle` records, and
         region_polygons: the polygon of each group of ``und``, both set by
             :meth:`_Context.prepare`.
@@ -139,7 +137,6 @@ class _Partition:
         "obstacles",
         "region_polygons",
         "region_rows",
-        "und",
     )
 
     def __init__(
@@ -149,7 +146,7 @@ class _Partition:
         counts: np.ndarray,
         imp_rows: np.ndarray,
         link_obst: np.ndarray,
-        und: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+        region_rows: list[np.ndarray],
     ) -> None:
         self.n_obst = int(counts.shape[0])
         self.items = items
@@ -157,10 +154,7 @@ class _Partition:
         self.bounds = [0, *np.cumsum(counts).tolist()]
         self.imp_rows = imp_rows
         self.link_obst = link_obst
-        self.und = und
-        rows, starts = und[0], und[1]
-        stops = [*starts[1:].tolist(), rows.shape[0]] if starts.shape[0] else []
-        self.region_rows = [rows[s0:s1] for s0, s1 in zip(starts.tolist(), stops, strict=True)]
+        self.region_rows = region_rows
         self.obstacles: list[Obstacle] = []
         self.region_polygons: list[FloatArray] = []
 
@@ -170,7 +164,7 @@ class _Partition:
         return [self.items[b[c] : b[c + 1]].tobytes() for c in range(self.n_obst)]
 
     def region_keys(self) -> list[bytes]:
-        """Cache key of each group of ``und`` (its rows' bytes)."""
+        """Cache key of each group of ``region_rows`` (its rows' bytes)."""
         return [r.tobytes() for r in self.region_rows]
 
 
@@ -306,6 +300,20 @@ def _groups(
     return rows, starts, s[srt][starts], lo[srt][starts], hi[srt][starts]
 
 
+def _group_rows(
+    groups: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+) -> list[np.ndarray]:
+    """The rows of each group of :func:`_groups`' result (views of its sorted rows)."""
+    rows, starts = groups[0], groups[1]
+    return [rows[s0:s1] for s0, s1 in zip(starts.tolist(), _stops(groups), strict=True)]
+
+
+def _stops(groups: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> list[int]:
+    """Where each group of :func:`_groups`' result ends in its sorted rows."""
+    rows, starts = groups[0], groups[1]
+    return [*starts[1:].tolist(), rows.shape[0]] if starts.shape[0] else []
+
+
 def _bounds(s: np.ndarray, n: int) -> list[int]:
     """Where each of situations ``0 .. n - 1`` starts in the ascending ``s`` (n + 1 entries)."""
     if n == 1:
@@ -351,24 +359,18 @@ def _partitions(ctx: _Context, actives: list[np.ndarray]) -> tuple[list[_Partiti
     und = _groups(between & ctx.is_und, oi, oj, rel.p_passable, span)
     # the short passable rows between obstacles: the narrowest first
     pas = _groups(between & ctx.is_short_pas, oi, oj, rel.distance_m, span)
+    region_rows = _group_rows(und)
     at_item, at_imp, at_group = _bounds(s_it, n_sit), _bounds(s_imp, n_sit), _bounds(und[2], n_sit)
-    at_row = (
-        [0, int(und[0].shape[0])]
-        if n_sit == 1
-        else np.append(und[1], und[0].shape[0])[at_group].tolist()
-    )
-    parts = []
-    for k in range(n_sit):
-        r0, r1, g0, g1 = at_row[k], at_row[k + 1], at_group[k], at_group[k + 1]
-        parts.append(
-            _Partition(
-                items=items[at_item[k] : at_item[k + 1]],
-                counts=counts[first_obst[k] : first_obst[k + 1]],
-                imp_rows=imp_rows[at_imp[k] : at_imp[k + 1]],
-                link_obst=link_obst[at_imp[k] : at_imp[k + 1]],
-                und=(und[0][r0:r1], und[1][g0:g1] - r0, und[3][g0:g1], und[4][g0:g1]),
-            )
+    parts = [
+        _Partition(
+            items=items[at_item[k] : at_item[k + 1]],
+            counts=counts[first_obst[k] : first_obst[k + 1]],
+            imp_rows=imp_rows[at_imp[k] : at_imp[k + 1]],
+            link_obst=link_obst[at_imp[k] : at_imp[k + 1]],
+            region_rows=region_rows[at_group[k] : at_group[k + 1]],
         )
+        for k in range(n_sit)
+    ]
     return parts, _Groups(oi=oi, oj=oj, und=und, pas=pas)
 
 
@@ -409,30 +411,29 @@ def _regions(ctx: _Context, parts: list[_Partition], groups: _Groups) -> list[li
     if rows.size == 0:
         return out
     rel = ctx.rel
-    stops = [*starts[1:].tolist(), rows.shape[0]]
     narrowest = rows[starts]
     w_mean, w_std = ctx.moments(narrowest)
-    narrow_pts = _narrowest_points(ctx, groups, narrowest, s)
     rel_lines = ctx.links[rows]
     rel_lines.setflags(write=False)
     rows_list = rows.tolist()
-    polygons = iter([poly for part in parts for poly in part.region_polygons])
-    for k, a_, b_, wm, ws, p_, nw, s0, s1 in zip(
+    polygons = [poly for part in parts for poly in part.region_polygons]
+    for k, a_, b_, poly, wm, ws, p_, nw, s0, s1 in zip(
         s.tolist(),
         lo.tolist(),
         hi.tolist(),
+        polygons,
         w_mean,
         w_std,
         rel.p_passable[narrowest].tolist(),
-        narrow_pts,
+        _narrowest_points(ctx, groups, narrowest, s),
         starts.tolist(),
-        stops,
+        _stops(groups.und),
         strict=True,
     ):
         out[k].append(
             CriticalRegion(
                 obstacles=(a_, b_),
-                polygon=next(polygons),
+                polygon=poly,
                 width_mean_m=wm,
                 width_std_m=ws,
                 p_passable=p_,
