@@ -21,7 +21,10 @@ environment using data from a sequence of observations"). :func:`fuse` folds one
    range, beyond ``near_range_m`` and below the image's lower edge (``head_height_m``,
    ``half_vfov_rad``, at the segment's top height), at least ``free_margin_m`` short of what
    the view sees along that ray; the occluders are the new view's segments and all its
-   candidates). Below
+   candidates) and the new view could have matched it: a segment imaged at less than
+   ``min_image_angle_deg`` to the rows (a face's bottom edge seen face-on: the segment stereo
+   drops such lines) is not evidence either way
+   (:func:`~modeling.memory_visibility.flat_in_image`). Below
    ``min_existence`` a segment is forgotten; existence is capped at ``max_existence`` so that
    enough contrary evidence always fades a segment.
 3. **Ambiguity**: a new ambiguous segment is associated with the remembered ambiguity whose
@@ -111,7 +114,7 @@ from modeling.memory_association import (
     take,
 )
 from modeling.memory_options import MemoryOptions
-from modeling.memory_visibility import Visibility, visibility
+from modeling.memory_visibility import Visibility, flat_in_image, visibility
 from modeling.model import ModelOptions, build_model
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
 from modeling.records import EnvironmentModel
@@ -277,6 +280,19 @@ def _seen_free_reference(vis: Visibility, segs: SegmentStack, opts: MemoryOption
     return out
 
 
+def _evidence_free(vis: Visibility, segs: SegmentStack, opts: MemoryOptions) -> np.ndarray:
+    """(n,) bool: each segment lies in the floor ``vis`` sees free (:func:`_seen_free`) where
+    the view could have matched it (not imaged along the rows:
+    :func:`~modeling.memory_visibility.flat_in_image`): its absence there is evidence that it
+    is not real."""
+    free = _seen_free(vis, segs, opts)
+    if free.any() and opts.min_image_angle_deg > 0.0:
+        free &= ~flat_in_image(
+            vis, segs.ends, segs.heights, opts.head_height_m, opts.min_image_angle_deg
+        )
+    return free
+
+
 def view_weight(
     fused_from: FloatArray, viewpoint: FloatArray, opts: MemoryOptions
 ) -> FloatArray | None:
@@ -405,7 +421,7 @@ def fuse(
         take(new, rest),
         observation.ambiguous,
         new_cands,
-        lambda segs: _seen_free(vis, segs, opts),
+        lambda segs: _evidence_free(vis, segs, opts),
         opts=opts,
         view=view,
         detected_segments=fused_arrays,
@@ -430,7 +446,7 @@ def fuse(
     detected[pairs.cols] = True
     touched = detected | (fresh.segment_ratio != 1.0)  # absorbed ones among them
     ratio = np.where(detected, pd / pf, 1.0)
-    ratio[~touched & _seen_free(vis, mem, opts)] = (1.0 - pd) / (1.0 - pf)
+    ratio[~touched & _evidence_free(vis, mem, opts)] = (1.0 - pd) / (1.0 - pf)
     existence = odds_update(prior, ratio * fresh.segment_ratio, opts.max_existence)
     last_seen = np.where(touched, view, np.asarray(memory.last_seen, dtype=np.int64))
     # 4. Resolved candidates: a remembered segment seen again when they coincide with one, new

@@ -69,6 +69,12 @@ class MemoryOptions:
             1.7 m); a tilted head needs the limit of its lower image edge.
         half_vfov_rad: Half the vertical field of view below the optical axis, radians, in
             (0, pi/2).
+        min_image_angle_deg: A remembered segment whose image in the new view (a level head at
+            ``head_height_m``) lies at less than this angle to the image rows cannot be
+            matched there (the segment stereo drops such lines: their disparity is ill-defined
+            along the epipolar lines, ``SegmentOptions.min_angle_deg``), so its floor seen free
+            is no evidence against it: a face's bottom edge seen face-on keeps its existence.
+            Degrees, in [0, 90); 0: every segment could be matched.
         n_rays: Rays of the visibility sweep across the field of view (>= 3).
         seen_tolerance_m: Simplification tolerance of the seen floor, metres (> 0).
         max_seen_vertices: The seen floor is simplified more coarsely while it has more vertices
@@ -99,6 +105,7 @@ class MemoryOptions:
     near_range_m: float = 0.0
     head_height_m: float = 0.0
     half_vfov_rad: float = 0.43
+    min_image_angle_deg: float = 0.0
     n_rays: int = 181
     seen_tolerance_m: float = 0.05
     max_seen_vertices: int = 2000
@@ -141,6 +148,9 @@ class MemoryOptions:
         ):
             object.__setattr__(self, name, integer(getattr(self, name), name, low=low))
         unit("half_vfov_rad", high=math.pi / 2)
+        unit("min_image_angle_deg", high=90.0, strict=False)
+        if self.min_image_angle_deg >= 90.0:
+            raise ValueError(f"min_image_angle_deg must be < 90, got {self.min_image_angle_deg}")
         unit("repeat_information", strict=False)
         if self.repeat_information <= 0.0:
             raise ValueError(f"repeat_information must be > 0, got {self.repeat_information}")

@@ -26,7 +26,7 @@ from modeling.observation import FloorObservation
 from modeling.occlusion import ray_hits
 from modeling.validation import FloatArray
 
-__all__ = ["Visibility", "visibility"]
+__all__ = ["Visibility", "flat_in_image", "visibility"]
 
 
 class Visibility(NamedTuple):
@@ -123,3 +123,35 @@ def visibility(
         reach=np.minimum(sweep.hit, sweep.max_range),
         near_m=near_m,
     )
+
+
+def flat_in_image(
+    vis: Visibility,
+    ends: FloatArray,
+    heights: FloatArray,
+    head_height_m: float,
+    min_angle_deg: float,
+) -> np.ndarray:
+    """(n,) bool: the image of each segment (floor endpoints ``ends`` (n, 2, 2), world metres,
+    their 3-D heights ``heights`` (n, 2)) in the view of ``vis``, a level head at
+    ``head_height_m``, lies at less than ``min_angle_deg`` to the image rows, so that the segment
+    stereo could not match it there (``SegmentOptions.min_angle_deg``).
+
+    A point ``z`` ahead, ``x`` across and ``h`` high images at ``(x / z, (H - h) / z)`` times the
+    focal length, which the angle does not depend on: a floor line across the gaze is a row, one
+    along it is steep, a vertical edge is a column. A segment with an endpoint not ahead of the
+    viewpoint is not flat (no view sees its floor)."""
+    n = ends.shape[0]
+    if n == 0 or min_angle_deg <= 0.0:
+        return np.zeros(n, dtype=bool)
+    rel = ends - vis.origin  # (n, 2, 2)
+    c, s = math.cos(vis.heading), math.sin(vis.heading)
+    z = rel[..., 0] * c + rel[..., 1] * s
+    x = rel[..., 1] * c - rel[..., 0] * s
+    ahead = np.all(z > 1e-9, axis=1)
+    z = np.where(z > 1e-9, z, 1.0)
+    du = x[:, 1] / z[:, 1] - x[:, 0] / z[:, 0]
+    dv = (head_height_m - heights[:, 1]) / z[:, 1] - (head_height_m - heights[:, 0]) / z[:, 0]
+    sin_min = math.sin(math.radians(min_angle_deg))
+    out: np.ndarray = ahead & (np.abs(dv) < sin_min * np.hypot(du, dv))
+    return out

@@ -13,6 +13,7 @@ from collections.abc import Sequence
 
 from modeling.memory import MemoryOptions, ModelMemory, add_contact, build_memory_model, fuse
 from modeling.model import EnvironmentModel
+from modeling.segments import SegmentOptions
 from stereo_nav_env.config import EnvConfig
 from stereo_nav_env.world import Contact
 
@@ -24,11 +25,14 @@ def memory_options(config: EnvConfig) -> MemoryOptions:
     level head's vertical limit, so that the memory does not count as seen what lies below the
     image's lower edge (a point of height ``h`` nearer than ``(head_height_m - h) /
     tan(half_vfov_rad)``: the floor within 1.73 m with the defaults), and judges a segment in view
-    or not at its own height."""
+    or not at its own height; and with the segment stereo's angle limit
+    (``SegmentOptions.min_angle_deg``), so that a segment imaged along the rows, which the stereo
+    cannot match, does not fade where its floor is seen free."""
     camera = config.camera
     return MemoryOptions(
         head_height_m=config.world.head_height_m,
         half_vfov_rad=math.atan((camera.height_px / 2.0) / camera.focal_px),
+        min_image_angle_deg=SegmentOptions().min_angle_deg,
     )
 
 

@@ -249,6 +249,32 @@ def test_a_low_segment_below_the_image_is_not_seen_free_a_tall_one_is() -> None:
     assert not unknown.contains(shapely.Point(1.9, 0.0))
 
 
+def test_a_segment_imaged_along_the_rows_does_not_fade_where_seen_free() -> None:
+    def floor_line(a: tuple[float, float], b: tuple[float, float], top: float) -> FloorSegment:
+        return FloorSegment(
+            endpoints=np.array([a, b]),
+            cov=np.tile(np.eye(2) * 1e-4, (2, 1, 1)),
+            height_m=np.array([0.0, top]) if a == b else np.array([top, top]),
+        )
+
+    face_on = floor_line((3.0, -0.3), (3.0, 0.0), 0.0)  # a face's bottom edge, seen face-on
+    radial = floor_line((2.5, 0.4), (3.5, 0.4), 0.0)  # a bottom edge along the gaze: steep
+    leg = floor_line((3.0, -0.6), (3.0, -0.6), 0.7)  # a vertical edge: a floor point
+    head = {"head_height_m": 0.8, "half_vfov_rad": math.atan(120 / 256)}
+    memory = fuse(ModelMemory.empty(), view((face_on, radial, leg)), **head)
+    # the stereo could not have matched the face-on edge from here (its image is a row), the
+    # radial one (about 70 degrees to the rows) and the leg (a column) it could have
+    later = fuse(memory, view(), min_image_angle_deg=25.0, **head)
+    miss = posterior(0.5, MISS)
+    assert later.existence == pytest.approx((0.5, miss, miss), abs=1e-12)
+    # with no angle limit every one of them fades
+    assert fuse(memory, view(), **head).existence == pytest.approx((miss,) * 3, abs=1e-12)
+    # seen along its length, the same face's edge is imaged steeply: its floor seen free counts
+    along = (3.0, -2.5, math.pi / 2)
+    aside = fuse(memory, view(at=along), min_image_angle_deg=25.0, **head)
+    assert aside.existence[0] == pytest.approx(miss, abs=1e-12)
+
+
 def test_memory_size_stays_bounded_over_500_steps() -> None:
     rng = np.random.default_rng(16)
     opts = MemoryOptions(max_segments=120, max_ambiguous=10, max_contacts=5, max_seen_vertices=400)
@@ -363,6 +389,8 @@ def test_fuse_is_deterministic_and_does_not_mutate_its_inputs() -> None:
         ("independent_baseline_m", -0.5),
         ("repeat_information", 0.0),
         ("repeat_information", 1.5),
+        ("min_image_angle_deg", 90.0),
+        ("min_image_angle_deg", -1.0),
     ],
 )
 def test_bad_options_raise_naming_the_field(field: str, value: float) -> None:
