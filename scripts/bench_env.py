@@ -21,15 +21,16 @@ contact fused into the episode's memory, memory_model: the fused model built, pa
 diagnostics: of both models).
 
 The surrogate row: in every round, the same drive and seed through ``perception="surrogate"``
-(:mod:`stereo_nav_env.surrogate`, nothing rendered), right after the stereo env:
-``surrogate_env_step_ms``, ``surrogate_env_steps_per_s`` and ``surrogate_over_stereo_steps_per_s``
-(its steps per second over the stereo env's, per round, then the median). The training pair:
-the same drive through the env ``train.py`` builds (``StereoNav-v1``, ``memory=False``,
-``diagnostics=False``) with each perception, ``train_stereo_env_*``, ``train_surrogate_env_*``
-and ``train_surrogate_over_stereo_steps_per_s``. Its two envs run side by side, in alternating
-blocks of 20 steps (each env its own drive and resets, as if alone), so that both are timed at
-the same moments: the machine's speed drifts by tens of percent within seconds, and a ratio of
-two envs timed one after the other moves with it.
+(:mod:`stereo_nav_env.surrogate`, nothing rendered) side by side with a second stereo env
+(``v0_stereo_env_step_ms``, ``v0_stereo_env_steps_per_s``): ``surrogate_env_step_ms``,
+``surrogate_env_steps_per_s`` and ``surrogate_over_stereo_steps_per_s`` (its steps per second
+over that stereo env's, per round, then the median). The training pair: the same drive through
+the env ``train.py`` builds (``StereoNav-v1``, ``memory=False``, ``diagnostics=False``) with each
+perception, ``train_stereo_env_*``, ``train_surrogate_env_*`` and
+``train_surrogate_over_stereo_steps_per_s``. The two envs of a pair run side by side, in
+alternating blocks of 20 steps (each env its own drive and resets, as if alone), so that both are
+timed at the same moments: the machine's speed drifts by tens of percent within seconds, and a
+ratio of two envs timed one after the other moves with it.
 
 ``--baseline DIR`` compares this checkout's env with another checkout's (DIR, e.g. the code
 before a change) in one run: the rounds alternate between the two trees (this, DIR, DIR, this,
@@ -136,14 +137,6 @@ def one_round(steps: int, seed: int) -> dict[str, float]:
     return out
 
 
-def drive_round(
-    steps: int, seed: int, prefix: str, env_id: str = "StereoNav-v0", **kwargs: Any
-) -> dict[str, float]:
-    """``<prefix>env_step_ms`` and ``<prefix>env_steps_per_s`` of ``steps`` timed steps of the
-    drive in ``gym.make(env_id, **kwargs)`` (a row beside the stereo env's)."""
-    return side_by_side(steps, seed, env_id, {prefix: kwargs})
-
-
 def side_by_side(
     steps: int, seed: int, env_id: str, rows: dict[str, dict[str, Any]]
 ) -> dict[str, float]:
@@ -177,8 +170,15 @@ def side_by_side(
 
 
 def surrogate_round(steps: int, seed: int) -> dict[str, float]:
-    """The surrogate perception's figures of ``steps`` timed steps of the drive (the row's)."""
-    return drive_round(steps, seed, "surrogate_", perception="surrogate")
+    """The surrogate row of ``steps`` timed steps of the drive: the default env with each
+    perception, side by side (``v0_stereo_*``, ``surrogate_*`` and their ratio)."""
+    out = side_by_side(
+        steps, seed, "StereoNav-v0", {"v0_stereo_": {}, "surrogate_": {"perception": "surrogate"}}
+    )
+    out["surrogate_over_stereo_steps_per_s"] = (
+        out["surrogate_env_steps_per_s"] / out["v0_stereo_env_steps_per_s"]
+    )
+    return out
 
 
 TRAINING_KWARGS: dict[str, Any] = {"scenario": "default", "memory": False, "diagnostics": False}
@@ -189,9 +189,6 @@ def _with_surrogate(stereo: dict[str, float], steps: int, seed: int) -> dict[str
     """``stereo``'s figures, the surrogate row of the same round, and the training pair: both
     perceptions in the env ``train.py`` builds (``train_stereo_*``, ``train_surrogate_*``)."""
     out = {**stereo, **surrogate_round(steps, seed)}
-    out["surrogate_over_stereo_steps_per_s"] = (
-        out["surrogate_env_steps_per_s"] / stereo["env_steps_per_s"]
-    )
     out |= side_by_side(
         steps,
         seed,
