@@ -275,6 +275,41 @@ def test_a_segment_imaged_along_the_rows_does_not_fade_where_seen_free() -> None
     assert aside.existence[0] == pytest.approx(miss, abs=1e-12)
 
 
+def test_flat_in_image_compares_the_image_angle_with_the_limit() -> None:
+    from modeling.memory_visibility import Visibility, flat_in_image
+
+    vis = Visibility(
+        origin=np.zeros(2),
+        heading=0.0,
+        half_fov=0.5,
+        angles=np.zeros(3),
+        reach=np.zeros(3),
+        near_m=0,
+    )
+    # floor points (x ahead, y across) image at (y / x, 0.8 / x): from (2, 0) to (4, y) the image
+    # rises 0.2 over y / 4 - 0, so y = 4 * 0.2 / tan(a) is at a degrees to the rows
+    at = [4.0 * 0.2 / math.tan(math.radians(a)) for a in (30.0, 20.0)]
+    ends = np.array(
+        [
+            [[2.0, 0.0], [4.0, at[0]]],  # 30 degrees: steep enough
+            [[2.0, 0.0], [4.0, at[1]]],  # 20 degrees: along the rows
+            [[3.0, -0.3], [3.0, 0.3]],  # across the gaze: a row
+            [[3.0, 0.5], [3.0, 0.52]],  # a leaning vertical edge (heights below): steep
+            [[-1.0, 0.0], [1.0, 2.0]],  # one end behind the viewpoint
+        ]
+    )
+    heights = np.array([[0.0, 0.0]] * 3 + [[0.0, 0.7], [0.0, 0.0]])
+    flat = flat_in_image(vis, ends, heights, 0.8, 25.0)
+    assert flat.tolist() == [False, True, True, False, False]
+    assert not flat_in_image(vis, ends, heights, 0.8, 0.0).any()
+    assert flat_in_image(vis, np.zeros((0, 2, 2)), np.zeros((0, 2)), 0.8, 25.0).shape == (0,)
+    # the same segments turned with the view give the same answer
+    turn = np.array([[0.0, -1.0], [1.0, 0.0]])  # 90 degrees
+    vis_turned = vis._replace(origin=np.array([5.0, -2.0]), heading=math.pi / 2)
+    moved = ends @ turn.T + vis_turned.origin
+    assert flat_in_image(vis_turned, moved, heights, 0.8, 25.0).tolist() == flat.tolist()
+
+
 def test_memory_size_stays_bounded_over_500_steps() -> None:
     rng = np.random.default_rng(16)
     opts = MemoryOptions(max_segments=120, max_ambiguous=10, max_contacts=5, max_seen_vertices=400)
