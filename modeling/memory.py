@@ -286,7 +286,7 @@ def _evidence_free(vis: Visibility, segs: SegmentStack, opts: MemoryOptions) -> 
     :func:`~modeling.memory_visibility.flat_in_image`): its absence there is evidence that it
     is not real."""
     free = _seen_free(vis, segs, opts)
-    if free.any() and opts.min_image_angle_deg > 0.0:
+    if free.any():
         free &= ~flat_in_image(
             vis, segs.ends, segs.heights, opts.head_height_m, opts.min_image_angle_deg
         )
