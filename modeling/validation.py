@@ -10,9 +10,10 @@ writes its own.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import typing
-from collections.abc import Mapping
+from collections.abc import Hashable, Mapping
 from typing import Any, TypeVar
 
 import numpy as np
@@ -135,10 +136,30 @@ def _field_names(cls: type[Any]) -> tuple[str, ...]:
 def with_overrides(options: T | None, cls: type[T], overrides: Mapping[str, Any]) -> T:
     """``options`` (``cls()`` when ``None``) with the fields named in ``overrides`` replaced.
 
+    The stages call this on every call, with the same few arguments: a result is kept and given
+    again for equal ``(options, overrides)``, keyed with each override's type (``1`` and ``1.0``
+    are not one key, so a field's own check still sees what was passed). The options are frozen,
+    so sharing them is safe; unhashable arguments are made afresh.
+
     Raises:
         ValueError: ``options`` is not a ``cls``, or a key of ``overrides`` is not a field of
             ``cls`` (the unknown keys and the known ones are named).
     """
+    try:
+        key = tuple(sorted((k, type(v), v) for k, v in overrides.items()))
+        return typing.cast(T, _kept(options, typing.cast(Hashable, cls), key))
+    except TypeError:  # unhashable options or values (an array, a list)
+        return _with_overrides(options, cls, overrides)
+
+
+@functools.lru_cache(maxsize=256)
+def _kept(options: Any, cls: type[Any], key: tuple[tuple[str, type, Any], ...]) -> Any:
+    """:func:`_with_overrides` of hashable arguments, kept (``key``: the sorted overrides)."""
+    return _with_overrides(options, cls, {name: value for name, _, value in key})
+
+
+def _with_overrides(options: T | None, cls: type[T], overrides: Mapping[str, Any]) -> T:
+    """:func:`with_overrides`, made afresh."""
     base = cls() if options is None else options
     if not isinstance(base, cls):
         raise ValueError(f"options must be a {cls.__name__}, got {type(options).__name__}")

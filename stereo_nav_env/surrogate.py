@@ -89,6 +89,11 @@ RATES_FILE = "surrogate_rates.json"
 """The measured rates, in ``stereo_nav_env/data`` (written by ``scripts/measure_surrogate.py``)."""
 
 
+_SEGMENT_OPTIONS = SegmentOptions()
+"""The extraction's default options (frozen: made once, not every step)."""
+_FACE_RANGE_M = FaceOptions().max_range_m
+"""How far :func:`modeling.faces.close_faces` closes faces by default, metres."""
+
 EDGE_CLASSES = tuple(f"{kind.value}{crease}" for kind in ObstacleKind for crease in ("", "_crease"))
 """The classes of edge the detection rates are kept for: an obstacle kind's outlines (one of the
 two sides meeting there faces the head: the edge stands against what lies behind it) and its
@@ -125,6 +130,9 @@ class SurrogateRates:
     error_scale: float
     end_loss_px: float
     _detection_table: FloatArray = field(init=False, repr=False, compare=False)
+    _inner_bins: FloatArray = field(init=False, repr=False, compare=False)
+    _false_rate: FloatArray = field(init=False, repr=False, compare=False)
+    _false_error: FloatArray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         bins = np.asarray(self.depth_bins_m, dtype=np.float64)
@@ -161,6 +169,14 @@ class SurrogateRates:
         if not (math.isfinite(self.error_scale) and self.error_scale > 0):
             raise ValueError(f"error_scale must be positive, got {self.error_scale!r}")
         object.__setattr__(self, "depth_bins_m", tuple(bins.tolist()))
+        # the arrays the surrogate reads every step, made once
+        for name, value in (
+            ("_inner_bins", bins[1:-1]),  # a depth's bin: how many of these it reaches
+            ("_false_rate", np.array(self.false_match_rate)),
+            ("_false_error", np.array(self.false_error_px)),
+        ):
+            value.setflags(write=False)
+            object.__setattr__(self, name, value)
         object.__setattr__(self, "error_scale", float(self.error_scale))
         if not (math.isfinite(self.end_loss_px) and self.end_loss_px >= 0):
             raise ValueError(f"end_loss_px must be >= 0, got {self.end_loss_px!r}")
@@ -171,21 +187,24 @@ class SurrogateRates:
         """The rates of a dict with (at least) the attribute names as keys."""
         return cls(**{name: data[name] for name in cls.__dataclass_fields__ if name[0] != "_"})
 
+    def depth_bin(self, depth_m: FloatArray) -> IntArray:
+        """(n,) the bin of each of the depths ``depth_m`` (n,) metres, clipped to the bins (one
+        search over the inner bin edges: a depth below the first bin is in it, one past the
+        last in the last)."""
+        out: IntArray = np.searchsorted(self._inner_bins, depth_m, side="right")
+        return out
+
     def at_depth(self, rates: tuple[Any, ...], depth_m: FloatArray) -> FloatArray:
         """``rates`` (one per bin: numbers, or rows) at depths ``depth_m`` (n,) metres (clipped
         to the bins): (n,) or (n, ...)."""
-        k = np.searchsorted(np.asarray(self.depth_bins_m), depth_m, side="right") - 1
-        out: FloatArray = np.asarray(rates, dtype=np.float64)[np.clip(k, 0, len(rates) - 1)]
+        out: FloatArray = np.asarray(rates, dtype=np.float64)[self.depth_bin(depth_m)]
         return out
 
     def detection_at(self, edge_class: IntArray, depth_m: FloatArray) -> FloatArray:
         """(n, 3) detection probabilities (both images, left only, right only) of ``n`` edges
         of classes ``edge_class`` (indices into :data:`EDGE_CLASSES`) at depths ``depth_m``
         (clipped to the bins)."""
-        k = np.searchsorted(np.asarray(self.depth_bins_m), depth_m, side="right") - 1
-        out: FloatArray = self._detection_table[
-            edge_class, np.clip(k, 0, len(self.depth_bins_m) - 2)
-        ]
+        out: FloatArray = self._detection_table[edge_class, self.depth_bin(depth_m)]
         return out
 
 
@@ -277,27 +296,25 @@ def surrogate_segments(
     """The idealised left and right image segments of what ``head`` sees (steps 1-4 of the
     module docstring), drawing from ``rng``; the left ones carry the floor lines as their
     near-horizontal lines."""
-    opts = SegmentOptions() if options is None else options
+    opts = _SEGMENT_OPTIONS if options is None else options
     vis = visible_edges(edges, head, rig, trim_px=opts.trim_px, min_length_px=opts.min_length_px)
     # which images segment each seen edge: both, the left only, the right only, neither
-    p = rates.detection_at(edge_classes(edges, vis), vis.Z)
-    pick = rng.random(len(vis))
-    both = pick < p[:, 0]
-    left_only = ~both & (pick < p[:, 0] + p[:, 1])
-    right_only = ~both & ~left_only & (pick < p.sum(axis=1))
-    found = np.flatnonzero(both | left_only | right_only)
-    in_image = np.stack([both | left_only, both | right_only])[:, found]  # (2, n)
+    # (the outcome: how many of the cumulative probabilities the draw reaches; 3: neither)
+    p = np.cumsum(rates.detection_at(edge_classes(edges, vis), vis.Z), axis=1)
+    outcome = (rng.random(len(vis))[:, None] >= p).sum(axis=1)
+    found = np.flatnonzero(outcome < 3)
+    outcome = outcome[found]
+    in_image = np.stack([outcome != 2, outcome != 1])  # (2, n): left, right
     n = found.size
     Z, u = vis.Z[found], vis.u[found]
     v0, v1 = vis.v_top[found], vis.v_bottom[found]
     pieces_of = image_pieces(edges, head, rig, u, Z, v0, v1, opts, end_loss_px=rates.end_loss_px)
-    false = in_image.all(axis=0) & (rng.random(n) < rates.at_depth(rates.false_match_rate, Z))
-    wrong = np.asarray(rates.false_error_px)[rng.integers(len(rates.false_error_px), size=n)]
+    false = (outcome == 0) & (rng.random(n) < rates._false_rate[rates.depth_bin(Z)])
+    wrong = rates._false_error[rng.integers(len(rates.false_error_px), size=n)]
     wrong *= np.where(rng.random(n) < 0.5, -1.0, 1.0)
     centre = np.stack([u, u - rig.fb / Z + np.where(false, wrong, 0.0)])  # (2, n)
-    faces = FaceOptions()
     floor_lines = visible_floor_lines(
-        edges, head, rig, vis.corner[found[in_image[0]]], max_range_m=faces.max_range_m
+        edges, head, rig, vis.corner[found[in_image[0]]], max_range_m=_FACE_RANGE_M
     )
     d = floor_lines[:, 1] - floor_lines[:, 0]
     length = np.hypot(d[:, 0], d[:, 1])

@@ -177,3 +177,20 @@ def test_with_overrides_replaces_named_fields_only() -> None:
         with_overrides(None, _Leaf, {"q": 1})
     with pytest.raises(ValueError, match="options must be a _Leaf, got _Tree"):
         with_overrides(_Tree(), _Leaf, {})
+
+
+def test_with_overrides_keeps_results_without_hiding_what_was_passed() -> None:
+    """Equal arguments give the kept options again; a value of another type is a new key (its
+    check still sees it); a bad value fails on every call; unhashable values are made afresh."""
+    from modeling.model import ModelOptions
+    from modeling.validation import with_overrides
+
+    first = with_overrides(None, ModelOptions, {"eps": 0.1, "max_situations": 8})
+    assert with_overrides(None, ModelOptions, {"max_situations": 8, "eps": 0.1}) is first
+    assert first == ModelOptions(eps=0.1, max_situations=8)
+    for _ in range(2):  # an int where an int is expected, then a float: the float is refused
+        assert with_overrides(None, ModelOptions, {"max_situations": 8}).max_situations == 8
+        with pytest.raises(ValueError, match="max_situations"):
+            with_overrides(None, ModelOptions, {"max_situations": 8.0})
+    unhashable = with_overrides(_Tree(), _Tree, {"leaf": _Leaf(x=3), "z": ["list"]})
+    assert unhashable.z == ["list"] and unhashable.leaf.x == 3

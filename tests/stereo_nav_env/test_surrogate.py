@@ -332,6 +332,31 @@ def test_creases_and_outlines_take_their_own_detection_rates() -> None:
     assert np.any(np.abs(left_all.u_center - front) < 1.0)
 
 
+def test_rates_at_depth_take_the_bin_clipped_to_the_first_and_last() -> None:
+    two_bins = {
+        "depth_bins_m": (1.0, 2.0, 4.0),
+        "detection": {name: ((0.5, 0.25, 0.0), (0.1, 0.0, 0.2)) for name in EDGE_CLASSES},
+        "false_match_rate": (0.1, 0.3),
+    }
+    rates = SurrogateRates(**{**_fields(EXACT), **two_bins})
+    depths = np.array([0.5, 1.0, 1.99, 2.0, 3.0, 4.0, 9.0])
+    assert rates.depth_bin(depths).tolist() == [0, 0, 0, 1, 1, 1, 1]
+    assert rates.at_depth(rates.false_match_rate, depths).tolist() == [0.1] * 3 + [0.3] * 4
+    p = rates.detection_at(np.zeros(7, dtype=np.int64), depths)
+    assert p.tolist() == [[0.5, 0.25, 0.0]] * 3 + [[0.1, 0.0, 0.2]] * 4
+
+
+def test_an_edge_imaged_in_one_image_only_gives_a_segment_there_only() -> None:
+    edges, _ = _visible(_scene(_box(3.0, 2.5, 0.5, 0.6)))
+    counts = []
+    for rates_of_class in ((0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, 0.0)):
+        detection = {name: (rates_of_class,) for name in EDGE_CLASSES}
+        rates = SurrogateRates(**{**_fields(EXACT), "detection": detection})
+        left, right = surrogate_segments(edges, RIG, HEAD, np.random.default_rng(0), rates)
+        counts.append((left.u_center.size > 0, right.u_center.size > 0))
+    assert counts == [(True, False), (False, True), (False, False)]
+
+
 def test_segments_stop_the_end_loss_short_of_the_seen_run() -> None:
     box = _box(3.0, 2.5, 0.6, 0.7)
     edges, vis = _visible(_scene(box))
