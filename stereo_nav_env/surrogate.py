@@ -200,6 +200,16 @@ class SurrogateRates:
         out: FloatArray = np.asarray(rates, dtype=np.float64)[self.depth_bin(depth_m)]
         return out
 
+    def false_rate_at(self, depth_m: FloatArray) -> FloatArray:
+        """(n,) the false-match rate at depths ``depth_m`` (n,) metres (clipped to the bins)."""
+        out: FloatArray = self._false_rate[self.depth_bin(depth_m)]
+        return out
+
+    def false_errors(self, index: IntArray) -> FloatArray:
+        """The measured false-match errors ``false_error_px[index]``, px (a new array)."""
+        out: FloatArray = self._false_error[index]
+        return out
+
     def detection_at(self, edge_class: IntArray, depth_m: FloatArray) -> FloatArray:
         """(n, 3) detection probabilities (both images, left only, right only) of ``n`` edges
         of classes ``edge_class`` (indices into :data:`EDGE_CLASSES`) at depths ``depth_m``
@@ -309,8 +319,8 @@ def surrogate_segments(
     Z, u = vis.Z[found], vis.u[found]
     v0, v1 = vis.v_top[found], vis.v_bottom[found]
     pieces_of = image_pieces(edges, head, rig, u, Z, v0, v1, opts, end_loss_px=rates.end_loss_px)
-    false = (outcome == 0) & (rng.random(n) < rates._false_rate[rates.depth_bin(Z)])
-    wrong = rates._false_error[rng.integers(len(rates.false_error_px), size=n)]
+    false = (outcome == 0) & (rng.random(n) < rates.false_rate_at(Z))
+    wrong = rates.false_errors(rng.integers(len(rates.false_error_px), size=n))
     wrong *= np.where(rng.random(n) < 0.5, -1.0, 1.0)
     centre = np.stack([u, u - rig.fb / Z + np.where(false, wrong, 0.0)])  # (2, n)
     floor_lines = visible_floor_lines(

@@ -31,6 +31,8 @@ _ROBOT = 1
 _OBSTACLE = 2
 _ROBOT_CATEGORY = 0b1
 """The robot shape's filter category (the nearest-obstacle query leaves it out)."""
+_NOT_ROBOT = pymunk.ShapeFilter(mask=pymunk.ShapeFilter.ALL_MASKS() ^ _ROBOT_CATEGORY)
+"""The query filter of every shape but the robot's."""
 _CLEAR_MARGIN_M = 0.05
 """Slack of :meth:`World.untouched_substeps` (a contact counts from 1 mm apart)."""
 
@@ -315,9 +317,8 @@ class World:
         nearest one found by one query). :meth:`step` queries contacts after the others only;
         a test holds its results equal to querying after every substep."""
         r = self.config.robot_radius_m
-        others = pymunk.ShapeFilter(mask=pymunk.ShapeFilter.ALL_MASKS() ^ _ROBOT_CATEGORY)
         reach = r + substeps * substep_m + _CLEAR_MARGIN_M
-        nearest = self.space.point_query_nearest(self.body.position, reach, others)
+        nearest = self.space.point_query_nearest(self.body.position, reach, _NOT_ROBOT)
         if nearest is None:
             return substeps
         clearance = nearest.distance - r - _CLEAR_MARGIN_M  # free travel before any contact
