@@ -194,12 +194,6 @@ class SurrogateRates:
         out: IntArray = np.searchsorted(self._inner_bins, depth_m, side="right")
         return out
 
-    def at_depth(self, rates: tuple[Any, ...], depth_m: FloatArray) -> FloatArray:
-        """``rates`` (one per bin: numbers, or rows) at depths ``depth_m`` (n,) metres (clipped
-        to the bins): (n,) or (n, ...)."""
-        out: FloatArray = np.asarray(rates, dtype=np.float64)[self.depth_bin(depth_m)]
-        return out
-
     def false_rate_at(self, depth_m: FloatArray) -> FloatArray:
         """(n,) the false-match rate at depths ``depth_m`` (n,) metres (clipped to the bins)."""
         out: FloatArray = self._false_rate[self.depth_bin(depth_m)]

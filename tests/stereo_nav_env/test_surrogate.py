@@ -341,7 +341,6 @@ def test_rates_at_depth_take_the_bin_clipped_to_the_first_and_last() -> None:
     rates = SurrogateRates(**{**_fields(EXACT), **two_bins})
     depths = np.array([0.5, 1.0, 1.99, 2.0, 3.0, 4.0, 9.0])
     assert rates.depth_bin(depths).tolist() == [0, 0, 0, 1, 1, 1, 1]
-    assert rates.at_depth(rates.false_match_rate, depths).tolist() == [0.1] * 3 + [0.3] * 4
     assert rates.false_rate_at(depths).tolist() == [0.1] * 3 + [0.3] * 4
     p = rates.detection_at(np.zeros(7, dtype=np.int64), depths)
     assert p.tolist() == [[0.5, 0.25, 0.0]] * 3 + [[0.1, 0.0, 0.2]] * 4
