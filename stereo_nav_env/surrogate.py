@@ -58,16 +58,16 @@ from numpy.typing import NDArray
 
 from modeling.faces import FaceOptions
 from modeling.faces import close_faces as close_faces_of
-from modeling.jit import compiled_on_first_call
 from modeling.matching import match_segments
 from modeling.model import build_model
 from modeling.rig import HeadPose, StereoRig
 from modeling.segments import ImageSegments, SegmentOptions
 from modeling.triangulation import triangulate_to_floor
+from stereo_nav_env._surrogate_loops import image_fits_loop, piece_fits, segment_pieces_loop
 from stereo_nav_env.perception import ComparableModel, Stopwatch
 from stereo_nav_env.scenes import ObstacleKind
 from stereo_nav_env.surrogate_floor import visible_floor_lines
-from stereo_nav_env.surrogate_photometry import image_pieces
+from stereo_nav_env.surrogate_photometry import ROWS, far_depth, image_pieces
 from stereo_nav_env.surrogate_visibility import SceneEdges, VisibleEdges, visible_edges
 
 __all__ = [
@@ -80,6 +80,7 @@ __all__ = [
     "piece_fits",
     "piece_fits_reference",
     "surrogate_segments",
+    "surrogate_segments_reference",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -259,37 +260,7 @@ def piece_fits_reference(
     return ends, u_c, v_c, slope, point_var, n_rows.astype(np.int64), s_vv, bias_var
 
 
-@compiled_on_first_call
-def piece_fits(
-    top: FloatArray,
-    bottom: FloatArray,
-    centre: FloatArray,
-    draw: FloatArray,
-    point_var_px2: float,
-    bias_var_px2: float,
-) -> PieceFits:
-    """:func:`piece_fits_reference` in one compiled loop (a test holds them equal, bit for bit)."""
-    m = top.shape[0]
-    ends = np.empty((m, 2, 2))
-    u_c, v_c, slope, s_vv = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
-    n_points = np.empty(m, dtype=np.int64)
-    for i in range(m):
-        n_rows = np.floor(bottom[i] - top[i]) + 1.0
-        s_vv[i] = n_rows * (n_rows * n_rows - 1.0) / 12.0
-        offset = draw[0, i] * np.sqrt(point_var_px2 / n_rows) + draw[2, i] * np.sqrt(bias_var_px2)
-        slope[i] = draw[1, i] * np.sqrt(point_var_px2 / s_vv[i])
-        v_c[i] = 0.5 * (top[i] + bottom[i])
-        u_c[i] = centre[i] + offset
-        ends[i, 0, 0] = u_c[i] + slope[i] * (top[i] - v_c[i])
-        ends[i, 0, 1] = top[i]
-        ends[i, 1, 0] = u_c[i] + slope[i] * (bottom[i] - v_c[i])
-        ends[i, 1, 1] = bottom[i]
-        n_points[i] = np.int64(n_rows)
-    point_var, bias_var = np.full(m, point_var_px2), np.full(m, bias_var_px2)
-    return ends, u_c, v_c, slope, point_var, n_points, s_vv, bias_var
-
-
-def surrogate_segments(
+def surrogate_segments_reference(
     edges: SceneEdges,
     rig: StereoRig,
     head: HeadPose,
@@ -299,7 +270,8 @@ def surrogate_segments(
 ) -> tuple[ImageSegments, ImageSegments]:
     """The idealised left and right image segments of what ``head`` sees (steps 1-4 of the
     module docstring), drawing from ``rng``; the left ones carry the floor lines as their
-    near-horizontal lines."""
+    near-horizontal lines. In NumPy, the one to read (:func:`surrogate_segments` makes the same,
+    bit for bit, with the same draws, in compiled loops)."""
     opts = _SEGMENT_OPTIONS if options is None else options
     vis = visible_edges(edges, head, rig, trim_px=opts.trim_px, min_length_px=opts.min_length_px)
     # which images segment each seen edge: both, the left only, the right only, neither
@@ -331,7 +303,7 @@ def surrogate_segments(
         r = np.flatnonzero(in_image[k, pieces.edge])
         # the fitted line's errors: offset, slope, common bias
         draw = rng.standard_normal((3, r.size)) * rates.error_scale
-        fit = piece_fits(
+        fit = piece_fits_reference(
             pieces.v_top[r],
             pieces.v_bottom[r],
             centre[k, pieces.edge[r]],
@@ -361,6 +333,129 @@ def surrogate_segments(
         )
 
     return image(0, horizontal), image(1, np.zeros((0, 2, 2)))
+
+
+def surrogate_segments(
+    edges: SceneEdges,
+    rig: StereoRig,
+    head: HeadPose,
+    rng: np.random.Generator,
+    rates: SurrogateRates,
+    options: SegmentOptions | None = None,
+) -> tuple[ImageSegments, ImageSegments]:
+    """:func:`surrogate_segments_reference`, the same draws from ``rng`` in the same order and
+    the same segments bit for bit (a test holds them equal), with the work between the draws
+    in two compiled loops (:mod:`._surrogate_loops`): the detection outcomes and the pieces of
+    the edges found, then each image's fitted lines."""
+    opts = _SEGMENT_OPTIONS if options is None else options
+    vis = visible_edges(edges, head, rig, trim_px=opts.trim_px, min_length_px=opts.min_length_px)
+    pick = rng.random(len(vis))
+    (cx, cy), c, s = rig.principal_point_px, math.cos(head.heading_rad), math.sin(head.heading_rad)
+    found, outcome, left_corners, *pieces = segment_pieces_loop(
+        pick,
+        vis.corner,
+        vis.crease,
+        vis.u,
+        vis.Z,
+        vis.v_top,
+        vis.v_bottom,
+        edges.corner_kind,
+        rates._inner_bins,
+        rates._detection_table,
+        np.array([rig.focal_px, cx, cy, rig.fb, rig.baseline_m]),
+        np.array([head.x_m, head.y_m, c, s, head.height_m]),
+        np.array(
+            [
+                -float(opts.side_px),
+                float(opts.side_px),
+                -opts.near_px,
+                opts.near_px,
+                2.0 * opts.min_gradient,
+                opts.min_length_px,
+                rates.end_loss_px,
+            ]
+        ),
+        ROWS,
+        far_depth(edges),
+        edges.side_start,
+        edges.side_normal,
+        edges.side_grey,
+        edges.top_grey,
+        edges.bottom_grey,
+        edges.z_min,
+        edges.z_max,
+        edges.floor_box,
+        float(edges.floor_grey),
+        float(edges.background_grey),
+    )
+    n = found.size
+    false_pick = rng.random(n)
+    wrong_index = rng.integers(len(rates.false_error_px), size=n)
+    sign_pick = rng.random(n)
+    u, Z = vis.u[found], vis.Z[found]
+    floor_lines = visible_floor_lines(edges, head, rig, left_corners, max_range_m=_FACE_RANGE_M)
+    d = floor_lines[:, 1] - floor_lines[:, 0]
+    length = np.hypot(d[:, 0], d[:, 1])
+    flat = np.abs(d[:, 1]) < opts.sin_min_angle * length
+    scalars = np.array(
+        [rates.error_scale, rig.fb, rig.sigma_px**2, opts.bias_sigma_px**2, 2.0 * opts.near_px]
+    )
+    out = []
+    for k, lines in enumerate(
+        (floor_lines[flat & (length >= opts.min_length_px)], np.zeros((0, 2, 2)))
+    ):
+        edge, top, bottom, greys, polarity = pieces[k]
+        draw = rng.standard_normal((3, edge.size))
+        *fit, contrast = image_fits_loop(
+            edge,
+            top,
+            bottom,
+            greys,
+            draw,
+            u,
+            Z,
+            outcome,
+            false_pick,
+            wrong_index,
+            sign_pick,
+            rates._inner_bins,
+            rates._false_rate,
+            rates._false_error,
+            scalars,
+            k == 1,
+        )
+        out.append(_image_segments(rig, fit, polarity, contrast, greys, lines))
+    return out[0], out[1]
+
+
+def _image_segments(
+    rig: StereoRig,
+    fit: list[Any],
+    polarity: NDArray[np.int8],
+    contrast: FloatArray,
+    greys: FloatArray,
+    lines: FloatArray,
+) -> ImageSegments:
+    """The :class:`ImageSegments` of one image's fitted pieces (``piece_fits``' arrays), every
+    array with the dtype and layout ImageSegments keeps (a test checks)."""
+    return ImageSegments.trusted(
+        (int(rig.height_px), int(rig.width_px)),
+        endpoints=fit[0],
+        u_center=fit[1],
+        v_center=fit[2],
+        slope=fit[3],
+        point_var=fit[4],
+        n_points=fit[5],
+        s_vv=fit[6],
+        bias_var=fit[7],
+        polarity=polarity,
+        contrast=contrast,
+        grey_left=greys[0],
+        grey_right=greys[1],
+        grey_left_near=greys[2],
+        grey_right_near=greys[3],
+        horizontal=lines,
+    )
 
 
 def perceive_surrogate(

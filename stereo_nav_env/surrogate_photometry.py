@@ -40,9 +40,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling.jit import compiled_on_first_call
 from modeling.rig import HeadPose, StereoRig
 from modeling.segments import SegmentOptions
+from stereo_nav_env._surrogate_loops import first_surfaces_loop, runs_loop
 from stereo_nav_env.surrogate_visibility import SceneEdges, clip_to_parts
 
 __all__ = [
@@ -51,6 +51,7 @@ __all__ = [
     "edge_greys",
     "edge_pieces",
     "edge_pieces_reference",
+    "far_depth",
     "first_surface_greys",
     "first_surface_greys_reference",
     "image_pieces",
@@ -119,7 +120,7 @@ def edge_greys(
     return out
 
 
-def _far_depth(edges: SceneEdges) -> float:
+def far_depth(edges: SceneEdges) -> float:
     """A depth past every surface of the scene (the rendered floor's diagonal and a metre)."""
     box = edges.floor_box
     return math.hypot(box[2] - box[0], box[3] - box[1]) + 1.0
@@ -143,12 +144,12 @@ def first_surface_greys(
     Returns:
         (m, R) grey levels.
     """
-    return _first_surfaces(
+    return first_surfaces_loop(
         np.ascontiguousarray(origin, dtype=np.float64),
         np.ascontiguousarray(direction, dtype=np.float64),
         np.ascontiguousarray(y, dtype=np.float64),
         float(height_m),
-        _far_depth(edges),
+        far_depth(edges),
         edges.side_start,
         edges.side_normal,
         edges.side_grey,
@@ -171,7 +172,7 @@ def first_surface_greys_reference(
     Hh = height_m
     n_rows = y.shape[1]
     box = edges.floor_box
-    z_far = _far_depth(edges)
+    z_far = far_depth(edges)
     # the floor, where the ray descends onto its rendered extent; else the background
     with np.errstate(divide="ignore"):
         z_floor = np.where(y > 0, Hh / np.where(y > 0, y, 1.0), np.inf)
@@ -215,82 +216,6 @@ def first_surface_greys_reference(
         won = np.isfinite(z_hit) & (z_hit == flat_best[cell])
         grey.reshape(-1)[cell[won]] = g_hit[won]
     out: FloatArray = grey
-    return out
-
-
-@compiled_on_first_call
-def _first_surfaces(
-    origin: FloatArray,
-    direction: FloatArray,
-    y: FloatArray,
-    hh: float,
-    z_far: float,
-    side_start: FloatArray,
-    side_normal: FloatArray,
-    side_grey: FloatArray,
-    top_grey: FloatArray,
-    bottom_grey: FloatArray,
-    z_min: FloatArray,
-    z_max: FloatArray,
-    floor_box: FloatArray,
-    floor_grey: float,
-    background_grey: float,
-) -> FloatArray:
-    """:func:`first_surface_greys_reference` as loops: per ray the floor, then every part
-    (Cyrus-Beck in depth units, the entered side the first of the largest entering ``t``)."""
-    n_rays, n_rows = y.shape
-    n_parts, n_sides = side_start.shape[0], side_start.shape[1]
-    out = np.empty((n_rays, n_rows))
-    best = np.empty(n_rows)
-    for i in range(n_rays):
-        ox, oy = origin[i, 0], origin[i, 1]
-        dx, dy = direction[i, 0], direction[i, 1]
-        for r in range(n_rows):
-            best[r] = np.inf
-            out[i, r] = background_grey
-            if y[i, r] > 0:
-                zf = hh / y[i, r]
-                fx, fy = ox + zf * dx, oy + zf * dy
-                if floor_box[0] <= fx <= floor_box[2] and floor_box[1] <= fy <= floor_box[3]:
-                    best[r] = zf
-                    out[i, r] = floor_grey
-        for p in range(n_parts):
-            t_enter, t_leave, side, outside = -np.inf, np.inf, -1, False
-            for v in range(n_sides):
-                nx, ny = side_normal[p, v, 0], side_normal[p, v, 1]
-                num = nx * (side_start[p, v, 0] - ox) + ny * (side_start[p, v, 1] - oy)
-                den = (nx * dx + ny * dy) * z_far
-                if den == 0.0:
-                    if num < 0.0:
-                        outside = True
-                    continue
-                t = num / den
-                if den < 0.0:
-                    if t > t_enter:
-                        t_enter, side = t, v
-                elif t < t_leave:
-                    t_leave = t
-            t0, t1 = max(t_enter, 0.0), min(t_leave, 1.0)
-            if outside or not t1 > t0:
-                continue
-            if t_enter < 0.0:
-                side = -1
-            z0, z1 = t0 * z_far, t1 * z_far
-            lo, hi = z_min[p], z_max[p]
-            for r in range(n_rows):
-                yr = y[i, r]
-                h0 = hh - yr * z0
-                if side >= 0 and lo <= h0 <= hi:
-                    z_hit, g = z0, side_grey[p, side]
-                elif h0 > hi and yr > 0:
-                    z_hit, g = (hh - hi) / yr, top_grey[p]
-                elif h0 < lo and yr < 0:
-                    z_hit, g = (hh - lo) / yr, bottom_grey[p]
-                else:
-                    continue
-                if z_hit <= z1 and z_hit <= best[r]:
-                    best[r] = z_hit
-                    out[i, r] = g
     return out
 
 
@@ -339,7 +264,7 @@ def edge_pieces(
         end_loss_px: Rows lost at each end of a piece, px (the extraction's line support
             stops short of where the edge ends).
     """
-    edge, top, bottom, means, polarity = _runs(
+    edge, top, bottom, means, polarity = runs_loop(
         np.ascontiguousarray(greys, dtype=np.float64),
         np.ascontiguousarray(v_top, dtype=np.float64),
         np.ascontiguousarray(v_bottom, dtype=np.float64),
@@ -348,53 +273,6 @@ def edge_pieces(
         float(end_loss_px),
     )
     return EdgePieces(edge=edge, v_top=top, v_bottom=bottom, greys=means, polarity=polarity)
-
-
-@compiled_on_first_call
-def _runs(
-    greys: FloatArray,
-    v_top: FloatArray,
-    v_bottom: FloatArray,
-    min_contrast: float,
-    min_length_px: float,
-    end_loss_px: float,
-) -> tuple[IntArray, FloatArray, FloatArray, FloatArray, NDArray[np.int8]]:
-    """:func:`edge_pieces_reference` as loops: edge by edge, the runs of rows of one sign."""
-    n, n_rows = greys.shape[1], greys.shape[2]
-    cap = n * ((n_rows + 1) // 2) + 1  # at most every other row starts a run
-    edge = np.empty(cap, np.int64)
-    top = np.empty(cap)
-    bottom = np.empty(cap)
-    means = np.empty((4, cap))
-    polarity = np.empty(cap, np.int8)
-    m = 0
-    for e in range(n):
-        share = (v_bottom[e] - v_top[e]) / n_rows
-        r = 0
-        while r < n_rows:
-            c = greys[3, e, r] - greys[2, e, r]
-            if abs(c) < min_contrast:
-                r += 1
-                continue
-            sign = 1.0 if c > 0 else -1.0
-            first = r
-            sums = np.zeros(4)
-            while r < n_rows:
-                c = greys[3, e, r] - greys[2, e, r]
-                if abs(c) < min_contrast or (c > 0) != (sign > 0):
-                    break
-                for k in range(4):
-                    sums[k] += greys[k, e, r]
-                r += 1
-            t = v_top[e] + first * share + end_loss_px
-            b = v_top[e] + r * share - end_loss_px
-            if b - t >= min_length_px:
-                edge[m], top[m], bottom[m] = e, t, b
-                for k in range(4):
-                    means[k, m] = sums[k] / (r - first)
-                polarity[m] = 1 if means[3, m] >= means[2, m] else -1
-                m += 1
-    return edge[:m], top[:m], bottom[:m], means[:, :m].copy(), polarity[:m]
 
 
 def edge_pieces_reference(

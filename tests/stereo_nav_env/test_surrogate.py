@@ -28,6 +28,7 @@ from stereo_nav_env.surrogate import (
     piece_fits,
     piece_fits_reference,
     surrogate_segments,
+    surrogate_segments_reference,
 )
 from stereo_nav_env.surrogate_floor import (
     floor_hidden,
@@ -471,3 +472,38 @@ def test_the_compiled_piece_fits_equal_their_numpy_reference() -> None:
     assert np.allclose(u_c, [1.0 / math.sqrt(10.0), 0.1])
     assert np.allclose(slope, [1.0 / math.sqrt(82.5), 1.0 / math.sqrt(83325.0)])
     assert np.allclose(ends[:, :, 1], [[0.0, 9.0], [0.0, 99.0]]) and np.allclose(v_c, [4.5, 49.5])
+
+
+LOSSY = SurrogateRates(  # every outcome and false matches often: all the branches taken
+    depth_bins_m=(0.0, 2.0, 4.0, 100.0),
+    detection={
+        name: ((0.5, 0.15, 0.15), (0.6, 0.1, 0.1), (0.3, 0.2, 0.2)) for name in EDGE_CLASSES
+    },
+    false_match_rate=(0.3, 0.5, 0.7),
+    false_error_px=(1.5, 3.0, 7.0),
+    error_scale=1.7,
+    end_loss_px=1.0,
+)
+
+
+@pytest.mark.parametrize("family", ["office", "cluttered", "room", "corridor"])
+def test_the_compiled_surrogate_segments_equal_their_numpy_reference(family: str) -> None:
+    heads = np.random.default_rng(17)
+    one_sided = segments = 0
+    for _scene, edges, trial, head in _random_heads(family, heads, 25):
+        rates = LOSSY if trial % 2 else default_rates()
+        got_rng, want_rng = np.random.default_rng(trial), np.random.default_rng(trial)
+        got = surrogate_segments(edges, RIG, head, got_rng, rates)
+        want = surrogate_segments_reference(edges, RIG, head, want_rng, rates)
+        for a, b in zip(got, want, strict=True):
+            assert a.image_shape == b.image_shape
+            for f in dataclasses.fields(b):
+                x, y = getattr(a, f.name), getattr(b, f.name)
+                if isinstance(y, np.ndarray):
+                    assert x.dtype == y.dtype and x.shape == y.shape, f.name
+                    assert np.array_equal(x, y) and x.flags.c_contiguous, f.name
+        # the same draws, in the same order: the generators end in the same state
+        assert got_rng.bit_generator.state == want_rng.bit_generator.state
+        one_sided += len(want[0]) != len(want[1])
+        segments += len(want[0])
+    assert segments > 0 and one_sided > 0
