@@ -40,7 +40,8 @@ import numpy as np
 from modeling.ambiguity import Elimination, Unit
 from modeling.gaps import Relation, gap_width_moments
 from modeling.items import Items
-from modeling.obstacles import components, make_obstacles
+from modeling.obstacles import make_obstacles
+from modeling.partitions import partition_arrays
 from modeling.records import CriticalRegion, Obstacle, Passage, Situation
 from modeling.relations import SegmentRelations
 from modeling.validation import FloatArray
@@ -189,6 +190,8 @@ class _Context:
         self.width_std = np.full(m, np.nan)
         self.links = np.stack([rel.point_i, rel.point_j], axis=1)  # (m, 2, 2)
         self.links.setflags(write=False)
+        self.ri = np.ascontiguousarray(rel.i, dtype=np.int64)
+        self.rj = np.ascontiguousarray(rel.j, dtype=np.int64)
         self.is_imp = rel.kind == _IMP
         self.is_und = rel.kind == _UND
         # Passable relations short enough to be a passage (the same in every situation).
@@ -198,6 +201,13 @@ class _Context:
         """Build, in one batch, the obstacles and region polygons of ``parts`` (each once, from
         the first situation that has it; shared by content, their items' and relation rows'
         bytes, between situations), and set each part's ``obstacles`` and ``region_polygons``."""
+        if len(parts) == 1:  # one situation: every obstacle and region is new, none shared
+            part = parts[0]
+            ob = np.repeat(np.arange(part.n_obst), part.counts)
+            part.obstacles, part.region_polygons = self._build(
+                part.items, ob, part.imp_rows, part.link_obst, part.region_rows
+            )
+            return
         new_keys: list[bytes] = []  # the new obstacles, in the order of their new id
         seen: set[bytes] = set()
         it_parts: list[np.ndarray] = []  # their items, grouped by new id
@@ -238,24 +248,37 @@ class _Context:
         ob = np.concatenate(ob_parts) if t else empty
         link_rows = np.concatenate(link_parts) if t else empty
         lob = np.concatenate(lob_parts) if t else empty
-        obstacles, region_polygons = make_obstacles(
-            ends=self.ends,
-            links=self.links,
-            item_segment=self.item_segment,
-            item_candidate=self.item_candidate,
-            items=it,
-            counts=np.bincount(ob, minlength=t),
-            link_rows=link_rows,
-            link_counts=np.bincount(lob, minlength=t),
-            link_order=np.argsort(np.concatenate((ob, lob)), kind="stable"),
-            outline_buffer_m=self.outline_buffer_m,
-            region_rows=list(new_regions.values()),
-        )
+        obstacles, region_polygons = self._build(it, ob, link_rows, lob, list(new_regions.values()))
         by_key = dict(zip(new_keys, obstacles, strict=True))
         region_by_key = dict(zip(new_regions, region_polygons, strict=True))
         for part, part_keys, part_region_keys in zip(parts, keys, region_keys, strict=True):
             part.obstacles = [by_key[k] for k in part_keys]
             part.region_polygons = [region_by_key[k] for k in part_region_keys]
+
+    def _build(
+        self,
+        items: np.ndarray,
+        ob: np.ndarray,
+        link_rows: np.ndarray,
+        lob: np.ndarray,
+        region_rows: list[np.ndarray],
+    ) -> tuple[list[Obstacle], list[FloatArray]]:
+        """:func:`make_obstacles` of the obstacles whose ``items`` (grouped by obstacle) are of
+        obstacles ``ob`` (0 .. t - 1, ascending) and whose links ``link_rows`` are of ``lob``."""
+        t = int(ob[-1]) + 1 if ob.shape[0] else 0
+        return make_obstacles(
+            ends=self.ends,
+            links=self.links,
+            item_segment=self.item_segment,
+            item_candidate=self.item_candidate,
+            items=items,
+            counts=np.bincount(ob, minlength=t),
+            link_rows=link_rows,
+            link_counts=np.bincount(lob, minlength=t),
+            link_order=np.argsort(np.concatenate((ob, lob)), kind="stable"),
+            outline_buffer_m=self.outline_buffer_m,
+            region_rows=region_rows,
+        )
 
     def moments(self, rows: np.ndarray) -> tuple[list[float], list[float]]:
         """Mean and standard deviation (metres) of the width of each relation row (cached)."""
@@ -270,97 +293,40 @@ class _Context:
         return self.width_mean[rows].tolist(), self.width_std[rows].tolist()
 
 
-def _groups(
-    mask: np.ndarray, oi: np.ndarray, oj: np.ndarray, within: FloatArray, span: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Relation rows of every situation grouped by (situation, obstacle pair), each group
-    sorted by ``within`` (ascending; ties in row order).
-
-    Args:
-        mask: (S, m) the relations of each situation to group.
-        oi, oj: (S, m) obstacle of each relation's items in each situation.
-        within: (m,) the order within a group.
-        span: More than any obstacle number.
-
-    Returns:
-        ``(rows, starts, s, lo, hi)``: the sorted rows, the start of each group in them, and
-        the group's situation and obstacle pair ``lo < hi``.
-    """
-    s, rows = mask.nonzero()  # situation-major, then by row
-    if rows.shape[0] == 0:
-        return rows, rows, s, rows, rows
-    a, b = oi[mask], oj[mask]
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    key = (s * span + lo) * span + hi  # ordered as (situation, lo, hi)
-    srt = np.lexsort((within[rows], key))
-    rows, key = rows[srt], key[srt]
-    new = np.ones(rows.shape[0], dtype=bool)
-    np.not_equal(key[1:], key[:-1], out=new[1:])
-    starts = new.nonzero()[0]
-    return rows, starts, s[srt][starts], lo[srt][starts], hi[srt][starts]
-
-
 def _group_rows(
     groups: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
 ) -> list[np.ndarray]:
-    """The rows of each group of :func:`_groups`' result (views of its sorted rows)."""
+    """The rows of each group of ``groups`` (views of its sorted rows)."""
     rows, starts = groups[0], groups[1]
     return [rows[s0:s1] for s0, s1 in zip(starts.tolist(), _stops(groups), strict=True)]
 
 
 def _stops(groups: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> list[int]:
-    """Where each group of :func:`_groups`' result ends in its sorted rows."""
+    """Where each group of ``groups`` ends in its sorted rows."""
     rows, starts = groups[0], groups[1]
     return [*starts[1:].tolist(), rows.shape[0]] if starts.shape[0] else []
 
 
-def _bounds(s: np.ndarray, n: int) -> list[int]:
-    """Where each of situations ``0 .. n - 1`` starts in the ascending ``s`` (n + 1 entries)."""
-    if n == 1:
-        return [0, int(s.shape[0])]
-    out: list[int] = np.searchsorted(s, np.arange(n + 1)).tolist()
-    return out
-
-
 def _partitions(ctx: _Context, actives: list[np.ndarray]) -> tuple[list[_Partition], _Groups]:
     """Obstacles of each situation whose items are ``actives``, and its relations between them:
-    all situations in one pass over (situations, relations) arrays.
-
-    A situation's obstacles are the components of the impassable relations among its active
-    items, numbered in the order of their smallest item. All situations are labelled by one
-    call: situation ``k``'s item ``x`` is node ``k N + x`` of one graph, so no component spans
-    two situations and its smallest node is ``k N`` plus the smallest item.
-    """
+    all situations in one compiled pass (:func:`modeling.partitions.partition_arrays`)."""
     rel = ctx.rel
     act = actives[0][None] if len(actives) == 1 else np.stack(actives)  # (S, N)
-    n_sit, n = act.shape
-    both = act[:, rel.i] & act[:, rel.j]  # (S, m)
-    imp = both & ctx.is_imp
-    s_imp, imp_rows = imp.nonzero()
-    shift = s_imp * n
-    labels = components(n_sit * n, rel.i[imp_rows] + shift, rel.j[imp_rows] + shift)
-    # obstacles numbered by their roots (the active items that are their own label), ascending
-    roots = act & (labels == np.arange(n_sit * n)).reshape(n_sit, n)
-    n_obst = roots.sum(axis=1)
-    rank = (np.cumsum(roots, axis=1) - 1).reshape(-1)[labels].reshape(n_sit, n)
-    obst = np.where(act, rank, -1)
-    oi, oj = obst[:, rel.i], obst[:, rel.j]  # (S, m)
-    between = both & (oi != oj)
-    # the active items by (situation, obstacle, item); items per obstacle
-    s_it, it = act.nonzero()
-    ob_it = obst[act]
-    items = it[np.lexsort((ob_it, s_it))]
-    first_obst = np.zeros(n_sit + 1, dtype=np.int64)  # where each situation's obstacles start
-    np.cumsum(n_obst, out=first_obst[1:])
-    counts = np.bincount(first_obst[s_it] + ob_it, minlength=int(first_obst[-1]))
-    link_obst = oi[imp]
-    # the undecided rows between obstacles: their narrowest (least passable) first
-    span = int(n_obst.max()) + 1
-    und = _groups(between & ctx.is_und, oi, oj, rel.p_passable, span)
-    # the short passable rows between obstacles: the narrowest first
-    pas = _groups(between & ctx.is_short_pas, oi, oj, rel.distance_m, span)
-    region_rows = _group_rows(und)
-    at_item, at_imp, at_group = _bounds(s_it, n_sit), _bounds(s_imp, n_sit), _bounds(und[2], n_sit)
+    arrays = partition_arrays(
+        act,
+        ctx.ri,
+        ctx.rj,
+        ctx.is_imp,
+        ctx.is_und,
+        ctx.is_short_pas,
+        rel.p_passable,
+        rel.distance_m,
+    )
+    items, counts, first_obst = arrays.items, arrays.counts, arrays.first_obst.tolist()
+    imp_rows, link_obst = arrays.imp_rows, arrays.link_obst
+    region_rows = _group_rows(arrays.und)
+    at_item, at_imp = arrays.item_bounds.tolist(), arrays.imp_bounds.tolist()
+    at_group = arrays.und_bounds.tolist()
     parts = [
         _Partition(
             items=items[at_item[k] : at_item[k + 1]],
@@ -369,14 +335,15 @@ def _partitions(ctx: _Context, actives: list[np.ndarray]) -> tuple[list[_Partiti
             link_obst=link_obst[at_imp[k] : at_imp[k + 1]],
             region_rows=region_rows[at_group[k] : at_group[k + 1]],
         )
-        for k in range(n_sit)
+        for k in range(act.shape[0])
     ]
-    return parts, _Groups(oi=oi, oj=oj, und=und, pas=pas)
+    return parts, _Groups(oi=arrays.oi, oj=arrays.oj, und=arrays.und, pas=arrays.pas)
 
 
 class _Groups:
-    """The relation groups of all situations (:func:`_groups` of the undecided and of the short
-    passable rows), and each relation's obstacles in each situation."""
+    """The relation groups of all situations (the undecided and the short passable rows'
+    groups of :func:`~modeling.partitions.partition_arrays`), and each relation's obstacles in
+    each situation."""
 
     __slots__ = ("oi", "oj", "pas", "und")
 

@@ -1,4 +1,5 @@
-"""The model's compiled loop equals its readable reference (modeling.obstacles, section 4.1)."""
+"""The model's compiled loops equal their readable references (modeling.obstacles and
+modeling.partitions, sections 4.1 and 4.2)."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from modeling.obstacles import (
     components_reference,
     finish_hulls_reference,
 )
+from modeling.partitions import partition_arrays, partition_arrays_reference
 
 
 def _random_sets(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -71,3 +73,35 @@ def test_union_find_equals_the_csgraph_reference(seed: int) -> None:
         got, want = components(n, i, j), components_reference(n, i, j)
         assert got.dtype == want.dtype == np.int64
         np.testing.assert_array_equal(got, want)
+
+
+def _situation_inputs(rng: np.random.Generator, n_sit: int, n: int, m: int) -> tuple:
+    """Random partition inputs: ``m`` relations among ``n`` items of every kind, in ``n_sit``
+    situations with random active items; ``p_passable`` and distances with ties."""
+    i = rng.integers(0, max(n - 1, 1), m)
+    j = np.minimum(i + rng.integers(1, max(n, 2), m), max(n - 1, 0))
+    kind = rng.integers(0, 3, m)  # impassable, undecided, short passable
+    act = rng.random((n_sit, n)) < rng.uniform(0.3, 1.0)
+    p = np.round(rng.random(m), 1)  # ties within groups: row order decides
+    d = np.round(rng.uniform(0.0, 2.0, m), 1)
+    return act, i, j, kind == 0, kind == 1, kind == 2, p, d
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_partition_kernel_equals_its_numpy_reference(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    cases = [(1, 0, 0), (1, 1, 0), (2, 3, 0)]  # degenerate: no items, no relations
+    cases += [
+        (int(rng.integers(1, 6)), int(rng.integers(2, 40)), int(rng.integers(0, 120)))
+        for _ in range(12)
+    ]
+    multi = 0
+    for n_sit, n, m in cases:
+        args = _situation_inputs(rng, n_sit, n, m)
+        got, want = partition_arrays(*args), partition_arrays_reference(*args)
+        for name, g, w in zip(got._fields, got, want, strict=True):
+            for a, b in zip(g, w, strict=True) if isinstance(g, tuple) else [(g, w)]:
+                assert np.asarray(a).dtype == np.asarray(b).dtype == np.int64, name
+                np.testing.assert_array_equal(a, b, err_msg=name)
+        multi += int((np.diff(got.first_obst) > 1).any() and got.und[0].size > 1)
+    assert multi >= 3  # several obstacles and undecided groups to sort, not only empty cases
