@@ -67,7 +67,7 @@ from stereo_nav_env._surrogate_loops import image_fits_loop, piece_fits, segment
 from stereo_nav_env.perception import ComparableModel, Stopwatch
 from stereo_nav_env.scenes import ObstacleKind
 from stereo_nav_env.surrogate_floor import visible_floor_lines
-from stereo_nav_env.surrogate_photometry import ROWS, far_depth, image_pieces
+from stereo_nav_env.surrogate_photometry import ROWS, image_pieces, surface_arrays
 from stereo_nav_env.surrogate_visibility import SceneEdges, VisibleEdges, visible_edges
 
 __all__ = [
@@ -312,25 +312,8 @@ def surrogate_segments_reference(
             opts.bias_sigma_px**2,
         )
         g = np.ascontiguousarray(pieces.greys[:, r])  # rows C-contiguous
-        # every array made here with the dtype and layout ImageSegments keeps (a test checks)
-        return ImageSegments.trusted(
-            (int(rig.height_px), int(rig.width_px)),
-            endpoints=fit[0],
-            u_center=fit[1],
-            v_center=fit[2],
-            slope=fit[3],
-            point_var=fit[4],
-            n_points=fit[5],
-            s_vv=fit[6],
-            bias_var=fit[7],
-            polarity=pieces.polarity[r],
-            contrast=np.abs(g[3] - g[2]) / (2.0 * opts.near_px),
-            grey_left=g[0],
-            grey_right=g[1],
-            grey_left_near=g[2],
-            grey_right_near=g[3],
-            horizontal=lines,
-        )
+        contrast = np.abs(g[3] - g[2]) / (2.0 * opts.near_px)
+        return _image_segments(rig, list(fit), pieces.polarity[r], contrast, g, lines)
 
     return image(0, horizontal), image(1, np.zeros((0, 2, 2)))
 
@@ -376,17 +359,7 @@ def surrogate_segments(
             ]
         ),
         ROWS,
-        far_depth(edges),
-        edges.side_start,
-        edges.side_normal,
-        edges.side_grey,
-        edges.top_grey,
-        edges.bottom_grey,
-        edges.z_min,
-        edges.z_max,
-        edges.floor_box,
-        float(edges.floor_grey),
-        float(edges.background_grey),
+        *surface_arrays(edges),
     )
     n = found.size
     false_pick = rng.random(n)

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -56,6 +57,7 @@ __all__ = [
     "first_surface_greys_reference",
     "image_pieces",
     "sample_rows",
+    "surface_arrays",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -149,6 +151,15 @@ def first_surface_greys(
         np.ascontiguousarray(direction, dtype=np.float64),
         np.ascontiguousarray(y, dtype=np.float64),
         float(height_m),
+        *surface_arrays(edges),
+    )
+
+
+def surface_arrays(edges: SceneEdges) -> tuple[Any, ...]:
+    """The arguments of the compiled first-surface loops that describe the scene's surfaces
+    (:func:`~stereo_nav_env._surrogate_loops.fill_first_surfaces`' after ``hh``): the far
+    depth, the parts' sides, greys and heights, the floor's box and grey, the background's."""
+    return (
         far_depth(edges),
         edges.side_start,
         edges.side_normal,

@@ -14,7 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from modeling.jit import compiled_on_first_call
+from modeling.jit import compiled_helper, compiled_on_first_call
 
 
 class HullSets(NamedTuple):
@@ -152,6 +152,23 @@ def finish_hulls(sets: HullSets) -> Polygons:
     return Polygons(out, offsets)
 
 
+@compiled_helper
+def join(parent: np.ndarray, a: int, b: int) -> None:
+    """Join the trees of nodes ``a`` and ``b`` in the forest ``parent``: find both roots (with
+    path halving on the way up), then hook the larger root onto the smaller, so every parent
+    stays smaller than its child and a root is the smallest node of its tree."""
+    while parent[a] != a:
+        parent[a] = parent[parent[a]]
+        a = parent[a]
+    while parent[b] != b:
+        parent[b] = parent[parent[b]]
+        b = parent[b]
+    if a < b:
+        parent[b] = a
+    elif b < a:
+        parent[a] = b
+
+
 @compiled_on_first_call
 def union_find(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
     """Connected components of the graph on ``n`` nodes with edges ``(i[k], j[k])``.
@@ -166,18 +183,7 @@ def union_find(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
     """
     parent = np.arange(n)
     for k in range(i.shape[0]):
-        a = i[k]
-        while parent[a] != a:  # path halving on the way up
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        b = j[k]
-        while parent[b] != b:
-            parent[b] = parent[parent[b]]
-            b = parent[b]
-        if a < b:
-            parent[b] = a
-        elif b < a:
-            parent[a] = b
+        join(parent, i[k], j[k])
     for v in range(n):  # its parent, smaller, points at the root already
         parent[v] = parent[parent[v]]
     return parent

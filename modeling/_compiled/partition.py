@@ -14,6 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from modeling._compiled.hull import join
 from modeling.jit import compiled_helper, compiled_on_first_call
 
 
@@ -122,8 +123,8 @@ def partition_arrays(
     ``is_short_pas`` (m,) bool: :class:`PartitionArrays` (undecided groups by ``p_passable``,
     short passable ones by ``distance_m``).
 
-    Each situation's components by union-find over its impassable rows (each root the smallest
-    item of its tree, as :func:`modeling.obstacles.components` labels them).
+    Each situation's components by union-find over its impassable rows (:func:`join`, each
+    root the smallest item of its tree, as :func:`modeling.obstacles.components` labels them).
     """
     n_sit, n = act.shape
     m = ri.shape[0]
@@ -150,18 +151,7 @@ def partition_arrays(
                 imp_rows[q] = r
                 imp_sit[q] = s
                 q += 1
-                a = ri[r]
-                while parent[a] != a:  # path halving
-                    parent[a] = parent[parent[a]]
-                    a = parent[a]
-                b = rj[r]
-                while parent[b] != b:
-                    parent[b] = parent[parent[b]]
-                    b = parent[b]
-                if a < b:
-                    parent[b] = a
-                elif b < a:
-                    parent[a] = b
+                join(parent, ri[r], rj[r])
         imp_bounds[s + 1] = q
         for x in range(n):  # in item order: a parent (smaller) points at its root already
             parent[x] = parent[parent[x]]
