@@ -28,6 +28,22 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 Int8Array = NDArray[np.int8]
+Surfaces = tuple[
+    float,
+    FloatArray,
+    FloatArray,
+    FloatArray,
+    FloatArray,
+    FloatArray,
+    FloatArray,
+    FloatArray,
+    FloatArray,
+    float,
+    float,
+]
+"""The scene's surfaces as the loops read them (``surface_arrays`` of the photometry): the far
+depth, the parts' side starts, normals and greys, top and bottom greys, bottom and top heights,
+the floor's box and grey, the background's grey."""
 
 
 @compiled_helper
@@ -37,20 +53,12 @@ def fill_first_surfaces(
     direction: FloatArray,
     y: FloatArray,
     hh: float,
-    z_far: float,
-    side_start: FloatArray,
-    side_normal: FloatArray,
-    side_grey: FloatArray,
-    top_grey: FloatArray,
-    bottom_grey: FloatArray,
-    z_min: FloatArray,
-    z_max: FloatArray,
-    floor_box: FloatArray,
-    floor_grey: float,
-    background_grey: float,
+    surfaces: Surfaces,
 ) -> None:
     """``out`` (rays, rows): per ray the floor, then every part (Cyrus-Beck in depth units, the
     entered side the first of the largest entering ``t``), the grey of the nearest surface."""
+    z_far, side_start, side_normal, side_grey, top_grey, bottom_grey = surfaces[:6]
+    z_min, z_max, floor_box, floor_grey, background_grey = surfaces[6:]
     n_rays, n_rows = y.shape
     n_parts, n_sides = side_start.shape[0], side_start.shape[1]
     best = np.empty(n_rows)
@@ -111,17 +119,7 @@ def first_surfaces_loop(
     direction: FloatArray,
     y: FloatArray,
     hh: float,
-    z_far: float,
-    side_start: FloatArray,
-    side_normal: FloatArray,
-    side_grey: FloatArray,
-    top_grey: FloatArray,
-    bottom_grey: FloatArray,
-    z_min: FloatArray,
-    z_max: FloatArray,
-    floor_box: FloatArray,
-    floor_grey: float,
-    background_grey: float,
+    surfaces: Surfaces,
 ) -> FloatArray:
     """``first_surface_greys_reference`` as loops (:func:`fill_first_surfaces`)."""
     out = np.empty(y.shape)
@@ -131,17 +129,7 @@ def first_surfaces_loop(
         direction,
         y,
         hh,
-        z_far,
-        side_start,
-        side_normal,
-        side_grey,
-        top_grey,
-        bottom_grey,
-        z_min,
-        z_max,
-        floor_box,
-        floor_grey,
-        background_grey,
+        surfaces,
     )
     return out
 
@@ -287,17 +275,7 @@ def segment_pieces_loop(
     head: FloatArray,
     samples: FloatArray,
     n_rows: int,
-    z_far: float,
-    side_start: FloatArray,
-    side_normal: FloatArray,
-    side_grey: FloatArray,
-    top_grey: FloatArray,
-    bottom_grey: FloatArray,
-    z_min: FloatArray,
-    z_max: FloatArray,
-    floor_box: FloatArray,
-    floor_grey: float,
-    background_grey: float,
+    surfaces: Surfaces,
 ) -> tuple[
     IntArray,
     IntArray,
@@ -318,7 +296,7 @@ def segment_pieces_loop(
         camera: ``(f, cx, cy, f b, baseline)``. ``head``: ``(x, y, cos, sin, height)``.
         samples: ``(-side_px, side_px, -near_px, near_px, min_contrast, min_length_px,
             end_loss_px)``.
-        n_rows: Rows sampled per edge. The rest: the scene's parts and floor (``SceneEdges``).
+        n_rows: Rows sampled per edge. ``surfaces``: the scene's parts and floor (:data:`Surfaces`).
 
     Returns:
         ``(found, outcome, left_corners, left, right)``: the edges found (indices into the seen
@@ -385,17 +363,7 @@ def segment_pieces_loop(
         direction,
         y,
         hh,
-        z_far,
-        side_start,
-        side_normal,
-        side_grey,
-        top_grey,
-        bottom_grey,
-        z_min,
-        z_max,
-        floor_box,
-        floor_grey,
-        background_grey,
+        surfaces,
     )
     grey4 = grey.reshape((2, 4, n, n_rows))
     left = _kept_runs(grey4[0], top, bottom, samples, outcome, 2)

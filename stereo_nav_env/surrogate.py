@@ -359,7 +359,7 @@ def surrogate_segments(
             ]
         ),
         ROWS,
-        *surface_arrays(edges),
+        surface_arrays(edges),
     )
     n = found.size
     false_pick = rng.random(n)

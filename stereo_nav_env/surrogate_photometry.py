@@ -36,14 +36,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from modeling.rig import HeadPose, StereoRig
 from modeling.segments import SegmentOptions
-from stereo_nav_env._surrogate_loops import first_surfaces_loop, runs_loop
+from stereo_nav_env._surrogate_loops import Surfaces, first_surfaces_loop, runs_loop
 from stereo_nav_env.surrogate_visibility import SceneEdges, clip_to_parts
 
 __all__ = [
@@ -151,14 +150,13 @@ def first_surface_greys(
         np.ascontiguousarray(direction, dtype=np.float64),
         np.ascontiguousarray(y, dtype=np.float64),
         float(height_m),
-        *surface_arrays(edges),
+        surface_arrays(edges),
     )
 
 
-def surface_arrays(edges: SceneEdges) -> tuple[Any, ...]:
-    """The arguments of the compiled first-surface loops that describe the scene's surfaces
-    (:func:`~stereo_nav_env._surrogate_loops.fill_first_surfaces`' after ``hh``): the far
-    depth, the parts' sides, greys and heights, the floor's box and grey, the background's."""
+def surface_arrays(edges: SceneEdges) -> Surfaces:
+    """The scene's surfaces as the compiled first-surface loops read them
+    (:data:`~stereo_nav_env._surrogate_loops.Surfaces`)."""
     return (
         far_depth(edges),
         edges.side_start,
