@@ -42,6 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from modeling._compiled import ambiguity as _ambiguity_kernel
 from modeling.gaps import Relation
 from modeling.observation import FloorObservation
 from modeling.obstacles import components
@@ -57,6 +58,7 @@ __all__ = [
     "eliminate_units_of_one_effect",
     "independent_groups",
     "units_moving_together",
+    "units_moving_together_reference",
 ]
 
 _IMP = int(Relation.IMPASSABLE)
@@ -136,6 +138,10 @@ def units_moving_together(
 ) -> list[Unit]:
     """Fig. 7: the units of the ambiguous segments ``live`` whose candidates move together.
 
+    The candidate ranks and the pairs moving together are one compiled pass
+    (:func:`modeling._compiled.ambiguity.moving_together`); its reference is
+    :func:`units_moving_together_reference`, and a test holds the two equal.
+
     Args:
         observation: The observation (its viewpoint and ambiguous segments' probabilities).
         live: The ambiguous indices not eliminated as isolated and short, ascending.
@@ -146,6 +152,65 @@ def units_moving_together(
     Returns:
         The units, in order of their first member.
     """
+    if not live:
+        return []
+    amb = observation.ambiguous
+    counts = [len(cand_item[a]) for a in live]
+    p_none = [amb[a].p_none for a in live]
+    offsets = np.zeros(len(live) + 1, dtype=np.int64)
+    np.cumsum(counts, out=offsets[1:])
+    candidates = _ambiguity_kernel.LiveCandidates(
+        ends=np.ascontiguousarray(ends, dtype=np.float64),
+        items=np.array([x for a in live for x in cand_item[a]], dtype=np.int64),
+        offsets=offsets,
+        has_none=np.array([p > 0.0 for p in p_none]),
+    )
+    vx, vy = (float(v) for v in observation.viewpoint[:2])
+    result = _ambiguity_kernel.moving_together(candidates, vx, vy, float(width))
+    order, start = result.order.tolist(), offsets.tolist()
+    by_unit: dict[int, list[int]] = {}  # the labels are first members: in order of those
+    for k, label in enumerate(result.labels.tolist()):
+        by_unit.setdefault(label, []).append(k)
+    units = []
+    for ks in by_unit.values():
+        members = tuple(live[k] for k in ks)
+        m = counts[ks[0]]
+        ranks = [order[start[k] : start[k] + m] for k in ks]
+        # the members' mean of (probabilities by rank, p_none), summed in member order
+        total = [0.0] * (m + 1)
+        for k, a, rank in zip(ks, members, ranks, strict=True):
+            row = [*(amb[a].probabilities[c] for c in rank), p_none[k]]
+            total = row if k == ks[0] else [t + r for t, r in zip(total, row, strict=True)]
+        pr = np.array([t / len(ks) for t in total])
+        items = [
+            tuple(cand_item[a][r[k]] for a, r in zip(members, ranks, strict=True)) for k in range(m)
+        ]
+        choices = [{a: r[k] for a, r in zip(members, ranks, strict=True)} for k in range(m)]
+        if p_none[ks[0]] > 0.0:  # "none": one more choice, with no item
+            items.append(())
+            choices.append(dict.fromkeys(members, NONE))
+        else:
+            pr = pr[:m]
+        units.append(
+            Unit(
+                members=members,
+                items=tuple(items),
+                probabilities=pr / pr.sum(),
+                choices=tuple(choices),
+            )
+        )
+    return units
+
+
+def units_moving_together_reference(
+    observation: FloorObservation,
+    live: list[int],
+    cand_item: list[list[int]],
+    ends: FloatArray,
+    width: float,
+) -> list[Unit]:
+    """:func:`units_moving_together` in NumPy and Python: the readable reference of its
+    compiled loop (:func:`modeling._compiled.ambiguity.moving_together`; equal results)."""
     order_of: dict[int, list[int]] = {}
     if live:
         # Distance of every item's midpoint from the viewpoint, then a stable sort per segment.

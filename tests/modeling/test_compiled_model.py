@@ -1,5 +1,5 @@
-"""The model's compiled loops equal their readable references (modeling.obstacles and
-modeling.partitions, sections 4.1 and 4.2)."""
+"""The model's compiled loops equal their readable references (modeling.obstacles,
+modeling.partitions and modeling.ambiguity, sections 4.1 and 4.2)."""
 
 from __future__ import annotations
 
@@ -7,6 +7,9 @@ import numpy as np
 import pytest
 
 from modeling._compiled.hull import finish_hulls
+from modeling.ambiguity import units_moving_together, units_moving_together_reference
+from modeling.items import items_of
+from modeling.observation import AmbiguousSegment, FloorObservation
 from modeling.obstacles import (
     _geos_hulls,
     components,
@@ -14,6 +17,7 @@ from modeling.obstacles import (
     finish_hulls_reference,
 )
 from modeling.partitions import partition_arrays, partition_arrays_reference
+from tests.modeling.test_model_figures import seg
 
 
 def _random_sets(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -105,3 +109,58 @@ def test_partition_kernel_equals_its_numpy_reference(seed: int) -> None:
                 np.testing.assert_array_equal(a, b, err_msg=name)
         multi += int((np.diff(got.first_obst) > 1).any() and got.und[0].size > 1)
     assert multi >= 3  # several obstacles and undecided groups to sort, not only empty cases
+
+
+def _shelf_observation(rng: np.random.Generator) -> FloorObservation:
+    """Ambiguous segments of every kind for Fig. 7: rows of repeated edges whose candidates move
+    together (a shelf front seen at several disparities), some with a "none" choice, some
+    displaced inconsistently or out of reach of each other, and candidates at equal distances
+    from the viewpoint (ties of the rank order)."""
+    ambiguous = []
+    for _ in range(int(rng.integers(0, 6))):
+        m = int(rng.integers(1, 4))
+        mass = float(rng.choice([1.0, 0.8])) if m > 1 else float(rng.uniform(0.2, 0.9))
+        x0, y0 = rng.uniform(-3.0, 3.0), rng.uniform(1.0, 6.0)
+        step = rng.normal(size=2) * rng.choice([0.05, 0.4])  # displacement between candidates
+        tie = rng.random() < 0.2  # candidates 0 and 1 mirrored about the viewpoint: equal ranks
+        for k in range(int(rng.integers(1, 4))):  # a row: the same candidates, displaced alike
+            base = np.array([x0 + 0.3 * k, y0]) + rng.normal(size=2) * rng.choice([0.0, 0.05, 1.0])
+            if rng.random() < 0.15:  # a stray member: another count or another "none" mass
+                m, mass = (2, 0.8) if m == 1 else (m, 1.0 if mass < 1.0 else 0.8)
+            ends = [
+                np.stack([a, a + rng.normal(size=2) * 0.3]) for a in base + np.outer(range(m), step)
+            ]
+            if tie and m > 1:  # candidate 1 mirrors 0 about the viewpoint's line x = 0
+                ends[1] = ends[0] * [-1.0, 1.0]
+            cands = [seg(e[0], e[1]) for e in ends]
+            p = rng.dirichlet(np.ones(m)) * mass if m > 1 else np.array([mass])
+            ambiguous.append(
+                AmbiguousSegment(candidates=tuple(cands), probabilities=tuple(p.tolist()))
+            )
+    return FloorObservation(
+        segments=(seg((0.0, 0.0), (1.0, 0.0)),),
+        ambiguous=tuple(ambiguous),
+        viewpoint=np.array([0.0, -2.0, 1.5708]),
+    )
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_moving_together_kernel_equals_its_numpy_reference(seed: int) -> None:
+    """Fig. 7's units: members, items by rank, choices and probabilities equal to the last bit
+    (on every live subset: some segments eliminated before)."""
+    rng = np.random.default_rng(seed)
+    joined = 0
+    for _ in range(40):
+        obs = _shelf_observation(rng)
+        items = items_of(obs)
+        n_amb = len(obs.ambiguous)
+        live = sorted(rng.choice(n_amb, size=int(rng.integers(0, n_amb + 1)), replace=False))
+        width = float(rng.choice([0.4, 0.6, 2.0]))
+        args = (obs, [int(a) for a in live], items.of_ambiguous, items.ends, width)
+        got, want = units_moving_together(*args), units_moving_together_reference(*args)
+        assert len(got) == len(want)
+        for g, w in zip(got, want, strict=True):
+            assert (g.members, g.items, g.choices) == (w.members, w.items, w.choices)
+            assert g.probabilities.tobytes() == w.probabilities.tobytes()
+        joined += sum(len(u.members) > 1 for u in got)
+    assert joined >= 3  # units of several members, not only singletons
