@@ -223,9 +223,7 @@ def visible_mask(
     ang = np.abs(wrap_angle(np.arctan2(dy, dx) - heading))
     mask = (dist <= max_range_m) & (ang <= obs.fov_rad / 2 - margin_rad) & (dist > 0.05)
     occ = model.occluded_geometry
-    if occ is None and model.occluded:
-        occ = shapely.union_all([shapely.Polygon(p) for p in model.occluded if len(p) >= 3])
-    if occ is not None and not occ.is_empty and mask.any():
+    if not occ.is_empty and mask.any():
         rows, cols = np.nonzero(mask)
         hidden = shapely.contains_xy(occ, X[rows, cols], Y[rows, cols])
         mask[rows[hidden], cols[hidden]] = False
@@ -530,7 +528,7 @@ class GateMemory:
             bearing = abs(float(wrap_angle(math.atan2(rel[1], rel[0]) - vp[2])))
             if dist > min(self.max_range_m, 4.5) or bearing > obs.fov_rad / 2 - margin:
                 continue
-            if occ is not None and not occ.is_empty and shapely.contains_xy(occ, *mid):
+            if not occ.is_empty and shapely.contains_xy(occ, *mid):
                 continue
             g.viewed_distance_m = min(g.viewed_distance_m, dist)
             if dist >= g.seen_distance_m:

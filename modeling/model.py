@@ -34,7 +34,7 @@ from modeling.ambiguity import (
 from modeling.gaps import _check_eps
 from modeling.items import isolated_short_segments, item_relations, items_of
 from modeling.observation import FloorObservation
-from modeling.occlusion import occluded_area, occluders_of, polygons_of
+from modeling.occlusion import occluded_polygons, occluders_of
 from modeling.records import CriticalRegion, EnvironmentModel, Obstacle, Passage, Situation
 from modeling.situations import enumerate_situations
 from modeling.validation import integer, positive, with_overrides
@@ -138,11 +138,11 @@ def build_model(
         outline_buffer_m=buffer_m,
     )
     # Occlusion: behind the obstacles of the most probable situation.
-    occluded = occluded_area(observation, occluders_of(situations[0]))
+    occluded = occluded_polygons(observation, occluders_of(situations[0]))
     return EnvironmentModel(
         situations=tuple(situations),
         residual_probability=residual,
-        occluded=polygons_of(occluded),
+        occluded=occluded,
         observation=observation,
         robot_width_m=width,
         eps=eps,
@@ -157,5 +157,4 @@ def build_model(
         merged_ambiguous=dict(sorted(elimination.merged.items())),
         units=tuple(units[u].members for u in elimination.remaining),
         groups=groups,
-        occluded_geometry=occluded,
     )

@@ -42,6 +42,7 @@ __all__ = [
     "nearest_hits",
     "nearest_hits_reference",
     "occluded_area",
+    "occluded_polygons",
     "occluders_of",
     "polygons_of",
     "ray_hits",
@@ -87,6 +88,39 @@ def occluded_area(obs: FloorObservation, ends: FloatArray, n_rays: int = 361) ->
         shapely.linearrings(rings.vertices, indices=np.repeat(np.arange(n_rings), rings.sizes))
     )
     return polys[0] if n_rings == 1 else shapely.multipolygons(polys)
+
+
+def occluded_polygons(
+    obs: FloorObservation, ends: FloatArray, n_rays: int = 361
+) -> tuple[FloatArray, ...]:
+    """The polygons of :func:`occluded_area` with an area (above 1e-9 m^2), each its exterior
+    ring (m, 2), not closed, read-only: what :func:`polygons_of` gives of that geometry, taken
+    from the sweep's rings directly (no shapely geometry is made: about 0.09 ms a model).
+
+    The ring areas are the shoelace sums; a ring whose area lies within a factor 1000 of the
+    threshold is measured by GEOS, as :func:`polygons_of` measures it.
+    """
+    if ends.shape[0] == 0:
+        return ()
+    sweep = ray_hits(obs, ends, n_rays)
+    if not (sweep.hit < sweep.max_range).any():
+        return ()
+    rings = shadow_rings(sweep)
+    v, sizes = rings.vertices, rings.sizes
+    starts = np.cumsum(sizes) - sizes
+    after = np.arange(1, v.shape[0] + 1)  # each vertex's successor in its ring
+    after[starts + sizes - 1] = starts
+    cross = v[:, 0] * v[after, 1] - v[after, 0] * v[:, 1]
+    areas = 0.5 * np.abs(np.add.reduceat(cross, starts))
+    v.setflags(write=False)
+    out = []
+    for s0, n, area in zip(starts.tolist(), sizes.tolist(), areas.tolist(), strict=True):
+        ring = v[s0 : s0 + n]
+        if area <= 1e-6:  # near the threshold: GEOS's own measure decides
+            area = float(shapely.area(shapely.Polygon(ring)))
+        if area > 1e-9:
+            out.append(ring)
+    return tuple(out)
 
 
 def ray_hits(obs: FloorObservation, ends: FloatArray, n_rays: int) -> RaySweep:

@@ -172,7 +172,6 @@ class EnvironmentModel:
             effect was not empty; that candidate is part of every situation (Fig. 8).
         units: Ambiguous segments moving together (Fig. 7), one tuple per remaining unit.
         groups: Independent groups of remaining ambiguous segments (Fig. 9).
-        occluded_geometry: The occluded area as one shapely geometry.
     """
 
     situations: tuple[Situation, ...]
@@ -190,7 +189,19 @@ class EnvironmentModel:
     merged_ambiguous: dict[int, int] = field(default_factory=dict)
     units: tuple[tuple[int, ...], ...] = ()
     groups: tuple[tuple[int, ...], ...] = ()
-    occluded_geometry: Any = None
+
+    @property
+    def occluded_geometry(self) -> Any:
+        """The occluded area as one shapely geometry: the polygons of ``occluded`` (an empty
+        Polygon, a Polygon or a MultiPolygon), made on each access."""
+        if not self.occluded:
+            return shapely.Polygon()
+        sizes = [ring.shape[0] for ring in self.occluded]
+        rings = shapely.linearrings(
+            np.concatenate(self.occluded), indices=np.repeat(np.arange(len(sizes)), sizes)
+        )
+        polygons = shapely.polygons(rings)
+        return polygons[0] if len(self.occluded) == 1 else shapely.multipolygons(polygons)
 
     @property
     def most_probable(self) -> Situation:

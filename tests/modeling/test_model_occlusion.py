@@ -8,7 +8,15 @@ import shapely
 from modeling.faces import FACE_SOURCE
 from modeling.model import build_model
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
-from modeling.occlusion import RaysAndSegments, RaySweep, nearest_hits, shadow_rings
+from modeling.occlusion import (
+    RaysAndSegments,
+    RaySweep,
+    nearest_hits,
+    occluded_area,
+    occluded_polygons,
+    polygons_of,
+    shadow_rings,
+)
 
 
 def test_nearest_hits_are_the_nearest_crossings_found_by_shapely() -> None:
@@ -43,6 +51,38 @@ def test_shadow_rings_are_one_ring_per_run_of_blocked_rays() -> None:
     np.testing.assert_allclose(rings.vertices[0], 2.0 * u[1])
     np.testing.assert_allclose(rings.vertices[2:6], 5.0 * u[[3, 2, 1, 0]])
     np.testing.assert_allclose(rings.vertices[6:], [1.0 * u[5], 5.0 * u[5], 5.0 * u[4]])
+
+
+def test_occluded_polygons_are_the_rings_of_the_occluded_geometry() -> None:
+    """The model's rings, made without shapely, equal those :func:`polygons_of` takes from the
+    geometry (to the last bit; a hit just short of the range makes a ring of almost no area,
+    which both leave out)."""
+    rng = np.random.default_rng(7)
+    obs = FloorObservation(segments=(), ambiguous=(), viewpoint=np.array([0.0, 0.0, 0.3]))
+    rings = 0
+    for k in range(60):
+        n = int(rng.integers(0, 12))
+        a = rng.uniform([0.5, -4.0], [7.0, 4.0], (n, 2))
+        ends = np.stack([a, a + rng.normal(scale=0.8, size=(n, 2))], axis=1)
+        if k == 0:  # a segment just inside the range, across the heading: a sliver of a ring
+            r = float(obs.max_range_m) - 2e-9
+            ends = np.array(
+                [
+                    [
+                        [r * np.cos(0.3) - 1e-3, r * np.sin(0.3) - 1e-3],
+                        [r * np.cos(0.3) + 1e-3, r * np.sin(0.3) + 1e-3],
+                    ]
+                ]
+            )
+        got, geometry = occluded_polygons(obs, ends), occluded_area(obs, ends)
+        want = polygons_of(geometry)
+        if k == 0:
+            assert 0.0 < geometry.area < 1e-9 and got == ()
+        assert [g.tobytes() for g in got] == [w.tobytes() for w in want]
+        pairs = zip(got, want, strict=True)
+        assert all(g.shape == w.shape and not g.flags.writeable for g, w in pairs)
+        rings += len(got)
+    assert rings >= 40
 
 
 def _seg(a, b, sigma: float = 0.01, source: int = -1) -> FloorSegment:
