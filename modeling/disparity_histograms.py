@@ -27,13 +27,20 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling._compiled.match import Candidates, Decision, HistogramInputs, PeakRule
+from modeling._compiled.match import (
+    Candidates,
+    Decision,
+    HistogramInputs,
+    PeakRule,
+    histogram_rows,
+)
 from modeling.validation import FloatArray
 
 __all__ = [
     "Splat",
     "decide_matches_reference",
     "histogram_inputs",
+    "histogram_inputs_reference",
     "region_histograms",
 ]
 
@@ -66,6 +73,34 @@ def histogram_inputs(cand: Candidates, slope_l: FloatArray, splat: Splat) -> His
     Returns:
         Mid disparities, weights, splat factors, bin 0's disparity, the bins, the Gaussian's
         exponents there, each candidate's histogram row and each row's left segment.
+    """
+    return histogram_rows(
+        cand.li,
+        cand.disparity,
+        cand.overlap,
+        cand.opposite,
+        slope_l,
+        splat.opposite_weight,
+        splat.sigma_bins,
+        splat.radius,
+        splat.bin_px,
+        splat.norm,
+    )
+
+
+def histogram_inputs_reference(
+    cand: Candidates, slope_l: FloatArray, splat: Splat
+) -> HistogramInputs:
+    """The readable reference of the compiled loop :func:`modeling._compiled.match.histogram_rows`
+    that :func:`histogram_inputs` runs (equal bit for bit; same arguments and result).
+
+    Args:
+        cand: The candidates, sorted by left segment.
+        slope_l: (nL,) the left segments' slopes du/dv.
+        splat: The spreading.
+
+    Returns:
+        As :func:`histogram_inputs`.
     """
     li, bin_px, radius = cand.li, splat.bin_px, splat.radius
     d_mid = 0.5 * (cand.disparity[:, 0] + cand.disparity[:, 1])

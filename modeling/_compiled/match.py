@@ -180,6 +180,91 @@ def candidate_grid(left: SegmentColumns, right: SegmentColumns, c: Constraints) 
 
 
 @compiled_on_first_call
+def histogram_rows(
+    li: np.ndarray,
+    disparity: np.ndarray,
+    overlap: np.ndarray,
+    opposite: np.ndarray,
+    slope_l: np.ndarray,
+    opposite_weight: float,
+    sigma_bins: float,
+    radius: int,
+    bin_px: float,
+    norm: float,
+) -> HistogramInputs:
+    """What the local histograms are made of, for k >= 1 candidates sorted by left segment.
+
+    Args:
+        li: (k,) left segment of each candidate (sorted).
+        disparity: (k, 2) disparity at the ends of each overlap, px.
+        overlap: (k,) overlap, rows.
+        opposite: (k,) opposite polarity.
+        slope_l: (nL,) the left segments' slopes du/dv.
+        opposite_weight: Factor on an opposite-polarity candidate's weight.
+        sigma_bins: The Gaussian's standard deviation, bins.
+        radius: The nearest bin and ``radius`` bins on each side.
+        bin_px: Bin width, px.
+        norm: The Gaussian's normalisation.
+
+    Returns:
+        The histogram inputs. Reference:
+        :func:`modeling.disparity_histograms.histogram_inputs_reference` (section 3.1).
+    """
+    k = li.shape[0]
+    width = 2 * radius + 1
+    d_mid = np.empty(k)
+    weight = np.empty(k)
+    scale = np.empty(k)
+    d_min = np.inf
+    d_max = -np.inf
+    for c in range(k):
+        d = 0.5 * (disparity[c, 0] + disparity[c, 1])
+        d_mid[c] = d
+        if d < d_min or d != d:  # a NaN sticks, as in ndarray.min
+            d_min = d
+        if d > d_max:
+            d_max = d
+        s = slope_l[li[c]]
+        w = overlap[c] * np.sqrt(1.0 + s * s)  # length of the overlap, px
+        weight[c] = w
+        scale[c] = (opposite_weight * w if opposite[c] else w) / norm
+    if d_min != d_min:  # as math.floor and math.ceil in the reference
+        raise ValueError("cannot convert float NaN to integer")
+    if not (np.isfinite(d_min) and np.isfinite(d_max)):
+        raise OverflowError("cannot convert float infinity to integer")
+    d_base = np.floor(d_min) - (radius + 2) * bin_px
+    n_bins = int(np.ceil((d_max - d_base) / bin_px)) + radius + 3
+    bins = np.empty((k, width), np.int64)
+    exponent = np.empty((k, width))
+    cand_row = np.empty(k, np.int64)
+    rows = np.empty(k, li.dtype)
+    n_rows = 0
+    for c in range(k):
+        x = (d_mid[c] - d_base) / bin_px
+        b0 = np.int64(np.rint(x))
+        for t in range(width):
+            b = b0 + (t - radius)
+            bins[c, t] = b
+            z = (b - x) / sigma_bins
+            exponent[c, t] = -0.5 * z * z
+        if c == 0 or li[c] != li[c - 1]:
+            rows[n_rows] = li[c]
+            n_rows += 1
+        cand_row[c] = n_rows - 1
+    return HistogramInputs(
+        d_mid=d_mid,
+        weight=weight,
+        scale=scale,
+        d_base=d_base,
+        n_bins=n_bins,
+        bins=bins,
+        exponent=exponent,
+        cand_row=cand_row,
+        rows=rows[:n_rows],
+    )
+
+
+@compiled_on_first_call
 def decide(hist: np.ndarray, cand: Candidates, inputs: HistogramInputs, rule: PeakRule) -> Decision:
     """The kept candidates of ``modeling.matching.match_segments`` from its region histograms.
 

@@ -2,11 +2,14 @@
 
 ``modeling._compiled.match.decide`` against ``modeling.disparity_histograms.
 decide_matches_reference``: exactly equal on the region histograms of seeded rendered pairs (four
-option sets) and on seeded random histograms with ties and flat tops.
+option sets) and on seeded random histograms with ties and flat tops. Likewise
+``histogram_inputs`` (the compiled ``histogram_rows``) against ``histogram_inputs_reference``, bit
+for bit, on the candidates of rendered pairs and on seeded random candidates.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -14,8 +17,10 @@ import pytest
 
 from modeling._compiled.match import Candidates, Decision, HistogramInputs, PeakRule, decide
 from modeling.disparity_histograms import (
+    Splat,
     decide_matches_reference,
     histogram_inputs,
+    histogram_inputs_reference,
     region_histograms,
 )
 from modeling.matching import MatchOptions, candidates_reference, match_candidates
@@ -184,3 +189,103 @@ def test_decide_keeps_one_candidate_per_peak_with_eq1_probabilities() -> None:
         np.testing.assert_allclose(got.probability, [0.75, 0.25])
         np.testing.assert_allclose(got.peak_disparity, [10.0, 30.0])
         np.testing.assert_allclose(got.peak_height, [3.0, 1.0])
+
+
+def _assert_same_inputs(got: HistogramInputs, want: HistogramInputs) -> None:
+    assert type(got) is HistogramInputs
+    for name in ("d_base", "n_bins"):
+        a, b = getattr(got, name), getattr(want, name)
+        assert type(a) is type(b) and a == b, name
+        assert np.signbit(a) == np.signbit(b), name
+    for name in HistogramInputs._fields:
+        a, b = np.atleast_1d(getattr(got, name)), np.atleast_1d(getattr(want, name))
+        assert a.dtype == b.dtype and a.shape == b.shape, name
+        np.testing.assert_array_equal(a, b, err_msg=name)
+        bits_a, bits_b = (
+            np.ascontiguousarray(a).view(np.uint8),
+            np.ascontiguousarray(b).view(np.uint8),
+        )
+        np.testing.assert_array_equal(bits_a, bits_b, err_msg=name)  # -0.0 and the NaN payloads
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_histogram_inputs_equal_their_reference_on_rendered_pairs(seed: int) -> None:
+    sl, sr = extract_segment_pair(*_rendered_pair(seed))
+    compared = 0
+    for left, right in ((sl, sr), (sr, sl)):  # swapped: mostly negative disparities
+        for overrides in GRID_OPTION_SETS:
+            opts = MatchOptions(**overrides, opposite_weight=0.3)
+            cand = candidates_reference(left, right, RIG, opts)
+            if cand.li.size == 0:
+                continue
+            splat = opts.splat()
+            _assert_same_inputs(
+                histogram_inputs(cand, left.slope, splat),
+                histogram_inputs_reference(cand, left.slope, splat),
+            )
+            compared += 1
+    assert compared > 0
+
+
+def _random_histogram_case(rng: np.random.Generator) -> tuple[Candidates, np.ndarray, Splat]:
+    """Candidates with one or many per left segment, opposite polarities, half-integer mid
+    disparities (ties of the rounding), negative disparities and steep slopes."""
+    n_left = int(rng.integers(1, 9))
+    k = int(rng.choice([1, 2, int(rng.integers(3, 80))]))
+    li = np.sort(rng.integers(0, n_left, k))
+    if rng.random() < 0.3:
+        li = np.full(k, int(rng.integers(0, n_left)))  # all on one left segment
+    shift = float(rng.choice([0.0, -40.0, -200.5, 1e3]))
+    if rng.random() < 0.5:  # integer ends: mid disparities on bins and half bins
+        d = rng.integers(-30, 60, (k, 2)).astype(float) + shift
+    else:
+        d = rng.uniform(-30.0, 60.0, (k, 2)) + shift
+    slope = rng.choice([0.0, 0.1, -0.7, 5.0, -40.0, 1e3], n_left) * rng.uniform(0.5, 1.5, n_left)
+    sigma = float(rng.choice([0.3, 1.0, 2.5, 3.7]))
+    bin_px = float(rng.choice([1.0, 0.5, 0.25, 2.0]))
+    rows = np.sort(rng.uniform(0.0, 200.0, (k, 2)), axis=1)
+    cand = Candidates(
+        li=li,
+        rj=rng.integers(0, 6, k),
+        rows=rows,
+        overlap=rng.choice([rows[:, 1] - rows[:, 0], np.full(k, 17.0)]),
+        disparity=d,
+        opposite=rng.random(k) < float(rng.choice([0.0, 0.4, 1.0])),
+    )
+    splat = Splat(
+        opposite_weight=float(rng.choice([0.0, 0.5, 1.0, 0.37])),
+        sigma_bins=sigma,
+        radius=max(1, math.ceil(3.0 * sigma)),
+        bin_px=bin_px,
+        norm=math.sqrt(2.0 * math.pi) * sigma,
+    )
+    return cand, slope, splat
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_histogram_inputs_equal_their_reference_on_random_candidates(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    for _ in range(40):
+        cand, slope, splat = _random_histogram_case(rng)
+        _assert_same_inputs(
+            histogram_inputs(cand, slope, splat), histogram_inputs_reference(cand, slope, splat)
+        )
+
+
+def test_histogram_inputs_round_half_bins_to_even() -> None:
+    # mid disparities 0.5, 1.5, 2.5 and -0.5 (bin 0 at -radius - 3 = -4): ties go to even bins
+    cand = Candidates(
+        li=np.array([0, 0, 1, 3]),
+        rj=np.zeros(4, np.int64),
+        rows=np.zeros((4, 2)),
+        overlap=np.ones(4),
+        disparity=np.array([[0.0, 1.0], [1.0, 2.0], [2.0, 3.0], [-1.0, 0.0]]),
+        opposite=np.array([False, True, False, True]),
+    )
+    splat = Splat(opposite_weight=0.5, sigma_bins=0.3, radius=1, bin_px=1.0, norm=1.0)
+    got = histogram_inputs(cand, np.zeros(4), splat)
+    _assert_same_inputs(got, histogram_inputs_reference(cand, np.zeros(4), splat))
+    assert got.d_base == -4.0
+    assert got.bins[:, 1].tolist() == [4, 6, 6, 4]
+    assert got.cand_row.tolist() == [0, 0, 1, 2] and got.rows.tolist() == [0, 1, 3]
+    np.testing.assert_array_equal(got.scale, [1.0, 0.5, 1.0, 0.5])
