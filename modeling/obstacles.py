@@ -27,6 +27,7 @@ __all__ = [
     "components",
     "components_reference",
     "finish_hulls_reference",
+    "geos_hull_sets",
     "hulls",
     "make_obstacles",
 ]
@@ -86,9 +87,11 @@ def hulls(
     """Convex hulls (each (m, 2), counter-clockwise, not closed) of point sets (vectorised).
 
     A degenerate hull (all points on a line, or one point) becomes the rectangle around that
-    segment at distance ``grow_m``, so every polygon has an area. GEOS (shapely) makes the hulls
-    of the sets of three or more points; the thin-hull test, the orientation and the rectangles
-    are one compiled pass (its reference: :func:`finish_hulls_reference`). Every set is computed
+    segment at distance ``grow_m``, so every polygon has an area. The hulls of the sets of three
+    or more points are those GEOS makes, vertex for vertex, from a compiled monotone chain
+    (:func:`hull_sets`; GEOS itself, :func:`geos_hull_sets`, where an orientation is too close
+    to call in floating point); the thin-hull test, the orientation and the rectangles are a
+    second compiled pass (its reference: :func:`finish_hulls_reference`). Every set is computed
     on its own, so a set's hull does not depend on the other sets of the call: callers batch as
     many sets as they can into one call to share its fixed cost.
 
@@ -103,17 +106,40 @@ def hulls(
     """
     if n == 0:
         return []
-    polygons = _hull_kernel.finish_hulls(_geos_hulls(points, index, n, grow_m))
+    polygons = _hull_kernel.finish_hulls(hull_sets(points, index, n, grow_m))
     vertices = polygons.vertices
     vertices.setflags(write=False)
     b = polygons.offsets.tolist()
     return [vertices[b[k] : b[k + 1]] for k in range(n)]
 
 
-def _geos_hulls(
+def hull_sets(
     points: FloatArray, index: np.ndarray, n: int, grow_m: float | FloatArray
 ) -> HullSets:
-    """The point sets of :func:`hulls` with the convex hulls GEOS makes of those of 3+ points."""
+    """:func:`geos_hull_sets`, equal field for field (a test holds them so), the hulls made by
+    the compiled :func:`modeling._compiled.hull.convex_rings` (GEOS's fixed cost per call, four
+    shapely functions, is most of the time of a model's hulls); by GEOS where it gives up."""
+    counts = np.bincount(index, minlength=n)
+    pts = np.ascontiguousarray(points, dtype=np.float64)
+    rings = _hull_kernel.convex_rings(pts, counts, counts <= 2)
+    if not rings.certain:
+        return geos_hull_sets(points, index, n, grow_m)
+    return HullSets(
+        points=pts,
+        counts=counts,
+        flat=rings.flat,
+        grow=np.ascontiguousarray(np.broadcast_to(np.asarray(grow_m, dtype=np.float64), (n,))),
+        poly_set=rings.poly_set,
+        coords=rings.coords,
+        n_coords=rings.n_coords,
+    )
+
+
+def geos_hull_sets(
+    points: FloatArray, index: np.ndarray, n: int, grow_m: float | FloatArray
+) -> HullSets:
+    """The point sets of :func:`hulls` with the convex hulls GEOS makes of those of 3+ points:
+    the reference of :func:`hull_sets`."""
     counts = np.bincount(index, minlength=n)
     flat = counts <= 2  # a hull of at most two points is flat: no need for GEOS
     big = (~flat).nonzero()[0]

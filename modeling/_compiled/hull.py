@@ -1,5 +1,6 @@
-"""Compiled loops of :mod:`modeling.obstacles`: the outline polygons (:func:`finish_hulls`, after
-GEOS has made the convex hulls; reference :func:`modeling.obstacles.finish_hulls_reference`) and
+"""Compiled loops of :mod:`modeling.obstacles`: the convex hulls as GEOS makes them
+(:func:`convex_rings`; reference: GEOS, :func:`modeling.obstacles.geos_hull_sets`), the outline
+polygons (:func:`finish_hulls`; reference :func:`modeling.obstacles.finish_hulls_reference`) and
 the connected components (:func:`union_find`; reference
 :func:`modeling.obstacles.components_reference`, scipy's csgraph).
 
@@ -51,6 +52,137 @@ class Polygons(NamedTuple):
 
     vertices: np.ndarray
     offsets: np.ndarray
+
+
+_ORIENT_BOUND = 3.3306690738754716e-16
+"""Shewchuk's ``ccwerrboundA``, ``(3 + 16 eps) eps``: where the rounded orientation determinant
+exceeds this times the sum of its two products' magnitudes, its sign is the exact one."""
+
+
+@compiled_helper
+def orientation(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> int:
+    """The exact sign of the turn a -> b -> c (1 counter-clockwise, -1 clockwise, 0 collinear)
+    where the rounded determinant decides it (Shewchuk's filter); 2 where it cannot."""
+    left = (ax - cx) * (by - cy)
+    right = (ay - cy) * (bx - cx)
+    det = left - right
+    bound = _ORIENT_BOUND * (abs(left) + abs(right))
+    if det > bound:
+        return 1
+    if -det > bound:
+        return -1
+    if bound == 0.0:  # both products exactly 0 (a difference is exactly 0): collinear
+        return 0
+    return 2
+
+
+class Rings(NamedTuple):
+    """The convex hulls of point sets as GEOS gives them (the fields of :class:`HullSets`).
+
+    Attributes:
+        flat: (n,) bool, the sets given flat, and those whose hull has no area.
+        poly_set: (q,) int64, the sets whose hull is a polygon, increasing.
+        coords: (c, 2) float64, those hulls: clockwise from the lowest vertex (smallest y, then
+            x), closed, one after another.
+        n_coords: (q,) int64, vertices of each ring, closing one included.
+        certain: False if an orientation was too close to call (the other fields are then
+            meaningless).
+    """
+
+    flat: np.ndarray
+    poly_set: np.ndarray
+    coords: np.ndarray
+    n_coords: np.ndarray
+    certain: bool
+
+
+@compiled_on_first_call
+def convex_rings(points: np.ndarray, counts: np.ndarray, flat: np.ndarray) -> Rings:
+    """The convex hull of each set not ``flat`` of ``points`` (sets one after another,
+    ``counts`` points each), vertex for vertex as GEOS makes it.
+
+    Andrew's monotone chain on the points sorted by (x, y), skipping repeated points and
+    dropping collinear ones, with exact orientations (:func:`orientation`; the call gives up,
+    ``certain`` False, at the first it cannot decide); a hull of fewer than 3 vertices makes its
+    set flat.
+    GEOS's ring of the same vertex set starts at the lowest vertex and runs clockwise.
+    """
+    n = counts.shape[0]
+    flat = flat.copy()
+    first = np.empty(n, np.int64)
+    total = 0
+    for s in range(n):
+        first[s] = total
+        total += counts[s]
+    poly_set = np.empty(n, np.int64)
+    n_coords = np.empty(n, np.int64)
+    coords = np.empty((total + n, 2))
+    hull = np.empty(2 * total + 1, np.int64)
+    q = 0
+    c = 0
+    for s in range(n):
+        if flat[s]:
+            continue
+        m = counts[s]
+        order = np.arange(first[s], first[s] + m)
+        for i in range(1, m):  # insertion sort by (x, y): the sets are small
+            k = order[i]
+            j = i - 1
+            while j >= 0 and (
+                points[order[j], 0] > points[k, 0]
+                or (points[order[j], 0] == points[k, 0] and points[order[j], 1] > points[k, 1])
+            ):
+                order[j + 1] = order[j]
+                j -= 1
+            order[j + 1] = k
+        h = 0
+        for sweep in range(2):  # the lower chain, then the upper one
+            floor = h + 1 if sweep else 2
+            for i in range(m):
+                k = order[i] if sweep == 0 else order[m - 2 - i] if i < m - 1 else -1
+                if k < 0:
+                    break
+                if i > 0 or sweep:  # a repeated point (GEOS drops them) would make a == b
+                    prev = order[i - 1] if sweep == 0 else order[m - 1 - i]
+                    if points[prev, 0] == points[k, 0] and points[prev, 1] == points[k, 1]:
+                        continue
+                while h >= floor:
+                    a, b = hull[h - 2], hull[h - 1]
+                    turn = orientation(
+                        points[a, 0],
+                        points[a, 1],
+                        points[b, 0],
+                        points[b, 1],
+                        points[k, 0],
+                        points[k, 1],
+                    )
+                    if turn == 2:
+                        return Rings(flat, poly_set[:0], coords[:0], n_coords[:0], False)
+                    if turn > 0:
+                        break
+                    h -= 1
+                hull[h] = k
+                h += 1
+        h -= 1  # the last vertex is the first again
+        if h < 3:
+            flat[s] = True
+            continue
+        low = 0
+        for v in range(1, h):
+            pv, pl = hull[v], hull[low]
+            if points[pv, 1] < points[pl, 1] or (
+                points[pv, 1] == points[pl, 1] and points[pv, 0] < points[pl, 0]
+            ):
+                low = v
+        for v in range(h + 1):  # clockwise from the lowest, closed
+            p = hull[(low - v) % h]
+            coords[c + v, 0] = points[p, 0]
+            coords[c + v, 1] = points[p, 1]
+        poly_set[q] = s
+        n_coords[q] = h + 1
+        q += 1
+        c += h + 1
+    return Rings(flat, poly_set[:q], coords[:c], n_coords[:q], True)
 
 
 @compiled_on_first_call

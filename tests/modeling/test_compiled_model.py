@@ -11,10 +11,10 @@ from modeling.ambiguity import units_moving_together, units_moving_together_refe
 from modeling.items import items_of
 from modeling.observation import AmbiguousSegment, FloorObservation
 from modeling.obstacles import (
-    _geos_hulls,
     components,
     components_reference,
     finish_hulls_reference,
+    geos_hull_sets,
 )
 from modeling.partitions import partition_arrays, partition_arrays_reference
 from tests.modeling.test_model_figures import seg
@@ -49,7 +49,7 @@ def test_finish_hulls_kernel_equals_reference(seed: int) -> None:
     n = 12
     points, index = _random_sets(rng, n)
     grow = rng.uniform(0.01, 0.2, n)
-    sets = _geos_hulls(points, index, n, grow)
+    sets = geos_hull_sets(points, index, n, grow)
     flat_before = sets.flat.copy()
     got = finish_hulls(sets)
     want = finish_hulls_reference(sets)
@@ -62,7 +62,7 @@ def test_finish_hulls_kernel_equals_reference(seed: int) -> None:
 def test_finish_hulls_kernel_equals_reference_on_one_grow_for_all() -> None:
     rng = np.random.default_rng(11)
     points, index = _random_sets(rng, 8)
-    sets = _geos_hulls(points, index, 8, 0.05)
+    sets = geos_hull_sets(points, index, 8, 0.05)
     got, want = finish_hulls(sets), finish_hulls_reference(sets)
     np.testing.assert_array_equal(got.vertices, want.vertices)
     np.testing.assert_array_equal(got.offsets, want.offsets)
