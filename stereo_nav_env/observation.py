@@ -182,8 +182,11 @@ def policy_goal(
 ) -> Float32Array:
     """``(min(distance / range_m, 1), cos(bearing), sin(bearing))`` (3,) float32 of the goal in
     the robot frame (the bearing's cos and sin do not jump at +-pi; (0, 1, 0) at the goal)."""
-    g = to_robot_frame(np.asarray(goal_xy, dtype=np.float64), robot_pose)
-    x, y = float(g[0]), float(g[1])
+    # to_robot_frame's arithmetic, on two floats
+    rx, ry, heading = robot_pose
+    c, s = math.cos(heading), math.sin(heading)
+    dx, dy = float(goal_xy[0]) - rx, float(goal_xy[1]) - ry
+    x, y = c * dx + s * dy, -s * dx + c * dy
     d = math.hypot(x, y)
     c, s = (x / d, y / d) if d > 1e-9 else (1.0, 0.0)
     return np.array([min(d / range_m, 1.0), c, s], dtype=np.float32)
@@ -271,12 +274,12 @@ def _region_table(
     axis = across / np.maximum(length, 1e-12)[:, None]
     axis[length <= 1e-12] = 0.0
     p = np.array([r.p_passable for _, r in regions])
-    radius = np.array(  # rigid motions keep distances: measured in the world frame
-        [
-            float(np.max(np.hypot(*(r.polygon - c).T)))
-            for (_, r), c in zip(regions, centre_w, strict=True)
-        ]
-    )
+    # the farthest polygon vertex from the centre (rigid motions keep distances: world frame)
+    polygons = [r.polygon for _, r in regions]
+    sizes = np.array([q.shape[0] for q in polygons])
+    rel = np.concatenate(polygons) - np.repeat(centre_w, sizes, axis=0)
+    starts = np.concatenate(([0], np.cumsum(sizes[:-1])))
+    radius = np.maximum.reduceat(np.hypot(rel[:, 0], rel[:, 1]), starts)
     feats = np.empty((len(regions), F))
     feats[:, 0] = 1.0
     feats[:, 1:3] = centre

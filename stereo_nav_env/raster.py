@@ -124,13 +124,20 @@ def _draw_situation(
     if regions:
         p = np.array([r.p_passable for r in regions])
         values = np.rint(255.0 * 4.0 * p * (1.0 - p)).astype(int)
-        for k in np.argsort(values, kind="stable").tolist():  # larger doubt drawn last, wins
-            if values[k] == 0:
-                continue
-            r = regions[k]
-            cv2.fillPoly(doubt, [_fixed(r.polygon, A, b)], int(values[k]), cv2.LINE_8, _SHIFT)
-            ends = _fixed(r.narrowest, A, b)
-            cv2.line(doubt, tuple(ends[0]), tuple(ends[1]), int(values[k]), 1, cv2.LINE_8, _SHIFT)
+        # larger doubt drawn last, wins; every vertex mapped in one call
+        order = [k for k in np.argsort(values, kind="stable").tolist() if values[k] != 0]
+        if not order:
+            return
+        shapes = [regions[k].polygon for k in order]
+        pix = _fixed(np.concatenate([*shapes, *(regions[k].narrowest for k in order)]), A, b)
+        ends = pix[-2 * len(order) :].tolist()
+        start = 0
+        for n, k in enumerate(order):
+            stop = start + shapes[n].shape[0]
+            value = int(values[k])
+            cv2.fillPoly(doubt, [pix[start:stop]], value, cv2.LINE_8, _SHIFT)
+            cv2.line(doubt, ends[2 * n], ends[2 * n + 1], value, 1, cv2.LINE_8, _SHIFT)
+            start = stop
 
 
 @functools.lru_cache(maxsize=8)
@@ -162,7 +169,9 @@ def view_wedge(model: EnvironmentModel, near_m: float = 0.0) -> FloatArray:
         return last[2]
     vx, vy, heading = (float(v) for v in obs.viewpoint)
     ang = heading + _arc_offsets(0.5 * float(obs.fov_rad))
-    unit = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    unit = np.empty((ang.shape[0], 2))
+    np.cos(ang, out=unit[:, 0])
+    np.sin(ang, out=unit[:, 1])
     far = np.array([vx, vy]) + obs.max_range_m * unit
     if near_m <= 0.0:
         wedge = np.concatenate([[[vx, vy]], far])

@@ -17,9 +17,14 @@ from numpy.typing import NDArray
 
 from modeling.model import EnvironmentModel
 from stereo_nav_env.config import ObservationConfig
-from stereo_nav_env.raster import UNKNOWN_VALUE, visible_mask, world_to_raster
+from stereo_nav_env.raster import visible_mask
 
 __all__ = ["SeenFloor"]
+
+FloatArray = NDArray[np.float64]
+
+_ZERO = np.zeros(1, dtype=np.uint8)
+"""The scalar 0 as OpenCV's ``compare`` takes it (a one-element array, broadcast)."""
 
 _MAX_CELLS = 4096
 """Largest grid side: a scene of 200 m at 5 cm cells (larger scenes get coarser cells)."""
@@ -66,20 +71,37 @@ class SeenFloor:
             robot_pose: ``(x_m, y_m, heading_rad)`` of the robot's centre, world frame.
             cfg: Raster size and extent (:func:`~stereo_nav_env.raster.world_to_raster`).
         """
-        A, b = world_to_raster(robot_pose, cfg)
-        G, g = self._grid_map
-        inv = np.linalg.inv(A)  # raster pixel -> world -> grid pixel
-        M = np.empty((2, 3))
-        M[:, :2] = G @ inv
-        M[:, 2] = g - G @ inv @ b
         size = cfg.raster_size_px
         seen = cv2.warpAffine(
             self.grid,
-            M,
+            self.raster_to_grid(robot_pose, cfg),
             (size, size),
             flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
             borderMode=cv2.BORDER_CONSTANT,
             borderValue=0,
         )
-        out: NDArray[np.uint8] = np.where(seen > 0, np.uint8(0), np.uint8(UNKNOWN_VALUE))
-        return out
+        # raster.UNKNOWN_VALUE (255) where the grid is 0, else 0
+        return np.asarray(cv2.compare(seen, _ZERO, cv2.CMP_EQ), dtype=np.uint8)
+
+    def raster_to_grid(
+        self, robot_pose: tuple[float, float, float], cfg: ObservationConfig
+    ) -> FloatArray:
+        """The (2, 3) affine map from the egocentric raster's pixels to this grid's: the
+        inverse of :func:`~stereo_nav_env.raster.world_to_raster`'s map, then the grid's.
+
+        That map is ``k Q`` with ``Q = [[s, -c], [-c, -s]]`` (its own inverse: ``Q Q = I``) and
+        ``k = 1 / raster_cell``, and its offset ``centre (1, 1) - k Q (x, y)``; so, with ``r =
+        raster_cell / grid_cell``, a raster pixel ``u`` is the grid pixel ``r Q u + (x, y) /
+        grid_cell - r centre Q (1, 1) + g`` (``g``: the grid map's offset).
+        """
+        x, y, heading = robot_pose
+        c, s = math.cos(heading), math.sin(heading)
+        r = cfg.raster_cell_m / self.cell_m
+        centre = cfg.raster_size_px / 2.0 - 0.5
+        (ox, oy), cell = self.origin, self.cell_m
+        return np.array(
+            [
+                [r * s, -r * c, (x - ox) / cell - 0.5 - r * centre * (s - c)],
+                [-r * c, -r * s, (y - oy) / cell - 0.5 + r * centre * (c + s)],
+            ]
+        )
