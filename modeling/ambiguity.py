@@ -186,20 +186,32 @@ def units_moving_together(
             tuple(cand_item[a][r[k]] for a, r in zip(members, ranks, strict=True)) for k in range(m)
         ]
         choices = [{a: r[k] for a, r in zip(members, ranks, strict=True)} for k in range(m)]
-        if p_none[ks[0]] > 0.0:  # "none": one more choice, with no item
-            items.append(())
-            choices.append(dict.fromkeys(members, NONE))
-        else:
-            pr = pr[:m]
-        units.append(
-            Unit(
-                members=members,
-                items=tuple(items),
-                probabilities=pr / pr.sum(),
-                choices=tuple(choices),
-            )
-        )
+        units.append(_unit(members, items, choices, pr, p_none[ks[0]] > 0.0))
     return units
+
+
+def _unit(
+    members: tuple[int, ...],
+    items: list[tuple[int, ...]],
+    choices: list[dict[int, int]],
+    pr: FloatArray,
+    has_none: bool,
+) -> Unit:
+    """The :class:`Unit` of ``members`` moving together from its choices' items and candidate
+    indices and ``pr``, one probability per choice, then the "none" mass; with the "none"
+    choice, which has no item, where the members may all be no match (``has_none``)."""
+    m = len(items)
+    if has_none:
+        items = [*items, ()]
+        choices = [*choices, dict.fromkeys(members, NONE)]
+    else:
+        pr = pr[:m]
+    return Unit(
+        members=members,
+        items=tuple(items),
+        probabilities=pr / pr.sum(),
+        choices=tuple(choices),
+    )
 
 
 def units_moving_together_reference(
@@ -230,19 +242,7 @@ def units_moving_together_reference(
         )
         items = [tuple(cand_item[a][order_of[a][k]] for a in members) for k in range(m)]
         choices = [{a: order_of[a][k] for a in members} for k in range(m)]
-        if has_none[members[0]]:  # "none": one more choice, with no item
-            items.append(())
-            choices.append(dict.fromkeys(members, NONE))
-        else:
-            pr = pr[:m]
-        units.append(
-            Unit(
-                members=tuple(members),
-                items=tuple(items),
-                probabilities=pr / pr.sum(),
-                choices=tuple(choices),
-            )
-        )
+        units.append(_unit(tuple(members), items, choices, pr, has_none[members[0]]))
     return units
 
 
