@@ -2,7 +2,8 @@
 
 ``stereo_to_floor`` chains segment extraction (``modeling.segments``), matching
 (``modeling.matching``), triangulation (``modeling.triangulation``) and, unless
-``close_faces=False``, the floor segments of plain faces (``modeling.faces``);
+``close_faces=False``, the floor segments of plain faces (``modeling.faces``) and, with
+``ground_lines=True``, those of the lowest near-horizontal lines (``modeling.ground_lines``);
 ``model_from_stereo`` continues with ``modeling.model.build_model``.
 """
 
@@ -18,6 +19,7 @@ from numpy.typing import NDArray
 
 from modeling.faces import FaceOptions
 from modeling.faces import close_faces as close_faces_of
+from modeling.ground_lines import GroundLineOptions, add_ground_lines
 from modeling.matching import MatchOptions, match_segments
 from modeling.observation import FloorObservation
 from modeling.rig import HeadPose, StereoRig
@@ -38,6 +40,7 @@ STEREO_STAGES: dict[str, type[Any]] = {
     "matching": MatchOptions,
     "triangulation": TriangulationOptions,
     "faces": FaceOptions,
+    "ground_lines": GroundLineOptions,
 }
 
 
@@ -86,6 +89,7 @@ def stereo_to_floor(
     head_pose: HeadPose,
     *,
     close_faces: bool = True,
+    ground_lines: bool = False,
     on_stage: Callable[[str], None] | None = None,
     **kw: Any,
 ) -> FloorObservation:
@@ -98,11 +102,13 @@ def stereo_to_floor(
         head_pose: Pose of the left optical centre.
         close_faces: Add the floor segments of plain faces (:func:`modeling.faces.close_faces`,
             as the env does by default); ``False``: the paper's pipeline alone.
+        ground_lines: Add the floor segments of the lowest near-horizontal lines
+            (:func:`modeling.ground_lines.add_ground_lines`; off by default).
         on_stage: Called with ``"segments"``, ``"matching"`` and ``"triangulation"`` (faces
             included) as each stage ends, e.g. to time them.
         **kw: Fields of the stage options (:data:`STEREO_STAGES`): ``SegmentOptions`` (e.g.
             ``bias_sigma_px``), ``MatchOptions`` (e.g. ``rel_peak``), ``TriangulationOptions``
-            (``min_height_m``, ``max_height_m``) and ``FaceOptions``.
+            (``min_height_m``, ``max_height_m``), ``FaceOptions`` and ``GroundLineOptions``.
 
     Returns:
         The ``FloorObservation``.
@@ -123,6 +129,8 @@ def stereo_to_floor(
     opts = route_options(kw, STEREO_STAGES)
     if not isinstance(close_faces, bool):
         raise ValueError(f"close_faces must be a bool, got {close_faces!r}")
+    if not isinstance(ground_lines, bool):
+        raise ValueError(f"ground_lines must be a bool, got {ground_lines!r}")
     stage_done = on_stage if on_stage is not None else _no_op
     segs_l, segs_r = extract_segment_pair(gl, gr, opts["segments"], rig=rig)
     stage_done("segments")
@@ -131,6 +139,8 @@ def stereo_to_floor(
     floor = triangulate_to_floor(matches, rig, head_pose, opts["triangulation"])
     if close_faces:
         floor = close_faces_of(segs_l, floor, opts["faces"])
+    if ground_lines:
+        floor = add_ground_lines(segs_l, floor, rig, head_pose, opts["ground_lines"])
     stage_done("triangulation")
     return floor
 
@@ -175,7 +185,9 @@ def model_from_stereo(
 
     positive(robot_width_m, "robot_width_m")  # fail before the stereo work
     model_keys = _fields(ModelOptions)
-    known = model_keys.union({"close_faces"}, *(_fields(c) for c in STEREO_STAGES.values()))
+    known = model_keys.union(
+        {"close_faces", "ground_lines"}, *(_fields(c) for c in STEREO_STAGES.values())
+    )
     unknown = sorted(set(kw) - known)
     if unknown:
         raise ValueError(

@@ -13,6 +13,7 @@ import shapely
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
 from modeling.faces import FACE_SOURCE, FaceOptions, close_faces, face_pairs
+from modeling.ground_lines import GROUND_SOURCE, add_ground_lines
 from modeling.matching import match_segments
 from modeling.model import build_model
 from modeling.observation import FloorObservation, FloorSegment
@@ -143,3 +144,23 @@ def test_bad_inputs_name_themselves() -> None:
         face_pairs(ImageSegments.empty((240, 320)), None)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="horizontal"):
         ImageSegments.empty((240, 320), horizontal=np.zeros((2, 4)))
+
+
+def test_ground_lines_put_a_face_on_wall_and_a_low_box_on_their_true_outlines() -> None:
+    """A wall seen face-on across the whole image has no vertical edge: segment stereo measures
+    nothing of it. Its bottom edge, and the low box's, become floor segments on their true
+    outlines; the box's top edge (0.4 m high, whose floor point would fall at 4 m, behind the
+    wall) lies above its bottom edge in the image and is dropped."""
+    wall = make_obstacle("wall", oriented_rect([3.55, 0.0], 0.1, 12.0, 0.0), color=(0.8, 0.8, 0.75))
+    box = _box(-0.4, 0.4, x_front=2.0, height_m=0.4)
+    segs_l, floor, truth = _observe((wall, box))
+    assert not any(abs(s.endpoints[:, 0] - 3.5).max() < 0.2 for s in floor.segments)
+    added = _added(floor, add_ground_lines(segs_l, floor, RIG, HEAD))
+    assert all(s.source == GROUND_SOURCE for s in added)
+    on_wall = [s for s in added if abs(s.endpoints[:, 0] - 3.5).max() <= 0.1]
+    on_box = [s for s in added if abs(s.endpoints[:, 0] - 2.0).max() <= 0.1]
+    assert sum(abs(s.endpoints[1, 1] - s.endpoints[0, 1]) for s in on_wall) >= 2.0
+    assert on_box
+    outline = truth.boundary
+    dist = [shapely.distance(shapely.points(s.endpoints), outline).max() for s in added]
+    assert max(dist) <= 0.1
