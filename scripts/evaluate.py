@@ -3,7 +3,7 @@
     python scripts/evaluate.py --agent NAME [--agent NAME ...] --episodes N --seed S --json FILE
         [--markdown FILE] [--plot FILE] [--details FILE] [--scenario FAMILY]
         [--families F [F ...]] [--max-steps N] [--workers K] [--terminate-on-collision]
-        [--perception P] [--tilt RAD]
+        [--perception P] [--tilt RAD] [--fused-range M] [--ground-lines]
 
 The suite runs under the StereoNav-v1 rules; each agent's JSON entry records them ("rules") and
 carries 95 % bootstrap intervals of its rates (keys ending in "_ci").
@@ -73,6 +73,12 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
         help="the model-based agents add the env's fused memory's obstacles within this many "
         "metres (NavigatorConfig.fused_range_m; turns the env's memory on; default 0: off)",
     )
+    parser.add_argument(
+        "--ground-lines",
+        action="store_true",
+        help="the env's lowest near-horizontal image lines enter as floor segments "
+        "(EnvConfig.ground_lines, modeling.ground_lines; stereo only)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
 
@@ -88,6 +94,7 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
             "perception": args.perception,
         }
         | ({"terminate_on_collision": True} if args.terminate_on_collision else {})
+        | ({"ground_lines": True} if args.ground_lines else {})
         | ({"camera": {"tilt_rad": args.tilt}} if args.tilt is not None else {}),
         navigator={"fused_range_m": args.fused_range} if args.fused_range > 0.0 else {},
         **kw,

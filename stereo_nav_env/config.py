@@ -294,6 +294,9 @@ class EnvConfig:
         model_max_situations: Most situations the model enumerates (``info["model"]``).
         close_faces: Whether a face's bottom edge joining two vertical edges closes the "gap"
             between them (:mod:`modeling.faces`, an addition to the paper's pipeline).
+        ground_lines: Whether the image's lowest near-horizontal lines enter as floor segments
+            where they meet the floor (:mod:`modeling.ground_lines`, an addition to the paper's
+            pipeline; off by default; stereo perception only).
         perception: ``"stereo"`` (render the pair and run the stereo pipeline) or
             ``"surrogate"`` (render nothing: the floor observation from the true scene and the
             stereo's error model and measured rates, :mod:`stereo_nav_env.surrogate`; the
@@ -316,6 +319,7 @@ class EnvConfig:
     eps: float = 0.05
     model_max_situations: int = 64
     close_faces: bool = True
+    ground_lines: bool = False
     perception: str = "stereo"
     memory: bool = True
     diagnostics: bool = True
@@ -339,6 +343,7 @@ class EnvConfig:
         integer(self.stuck_steps, "stuck_steps", low=0)
         number(self.stuck_progress_m, "stuck_progress_m", low=0.0)
         boolean(self.close_faces, "close_faces")
+        boolean(self.ground_lines, "ground_lines")
         boolean(self.memory, "memory")
         boolean(self.diagnostics, "diagnostics")
         if self.perception not in PERCEPTIONS:
@@ -353,6 +358,11 @@ class EnvConfig:
             raise ValueError(
                 f"observation_mode {self.observation.observation_mode.value!r} observes the "
                 "memory: memory must be True"
+            )
+        if self.perception == "surrogate" and self.ground_lines:
+            raise ValueError(
+                "ground_lines needs perception='stereo': the surrogate does not imitate the "
+                "near-horizontal image lines"
             )
         if self.perception == "surrogate" and self.observation.has_images:
             raise ValueError(

@@ -384,6 +384,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             grey[1],
             self.rig,
             head,
+            ground_lines=cfg.ground_lines,
             **settings,
         )
 

@@ -252,6 +252,7 @@ def perceive(
     eps: float,
     max_situations: int,
     close_faces: bool = True,
+    ground_lines: bool = False,
     stopwatch: Stopwatch | None = None,
 ) -> ComparableModel:
     """The environment model of one rectified pair (the whole modeling pipeline).
@@ -266,6 +267,8 @@ def perceive(
         eps: Classification tolerance in (0, 0.5).
         max_situations: Most situations enumerated.
         close_faces: Close the "gaps" that are plain faces (:func:`modeling.faces.close_faces`).
+        ground_lines: Add the floor segments of the lowest near-horizontal lines
+            (:func:`modeling.ground_lines.add_ground_lines`).
         stopwatch: If given, its laps ``segments``, ``matching``, ``triangulation`` and
             ``modeling`` are added to (its clock must have been lapped just before the call).
 
@@ -279,6 +282,7 @@ def perceive(
         rig,
         head_pose,
         close_faces=close_faces,
+        ground_lines=ground_lines,
         on_stage=watch.lap,
         max_height_m=robot_height_m,
     )

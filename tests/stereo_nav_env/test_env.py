@@ -452,3 +452,30 @@ def test_the_camera_tilt_reaches_the_head_pose() -> None:
     finally:
         level.close()
         tilted.close()
+
+
+def test_ground_lines_add_floor_segments_on_the_true_outlines_of_a_room() -> None:
+    """``ground_lines=True``: the model's ground-line segments lie on the true outlines (most of
+    them within 0.15 m) and the model without them has none."""
+    import shapely
+
+    from modeling.ground_lines import GROUND_SOURCE
+
+    found = {}
+    for on in (False, True):
+        env = gym.make("StereoNav-v1", scenario="room", ground_lines=on, diagnostics=False)
+        env.reset(seed=1)
+        outline = shapely.union_all(
+            [shapely.Polygon(o.footprint).exterior for o in env.unwrapped.scene.obstacles]
+        )
+        segs = []
+        for t in range(12):
+            _, _, term, trunc, info = env.step(np.array([0.0, 0.6, 0.0], np.float32) * (t % 2))
+            segs += [s for s in info["model"].observation.segments if s.source == GROUND_SOURCE]
+            if term or trunc:
+                break
+        env.close()
+        found[on] = [shapely.distance(shapely.points(s.endpoints), outline).max() for s in segs]
+    assert found[False] == []
+    assert len(found[True]) >= 5
+    assert np.mean(np.array(found[True]) <= 0.15) >= 0.9

@@ -239,6 +239,11 @@ def test_perception_is_a_validated_config_field() -> None:
         EnvConfig.from_kwargs(perception="lidar")
     with pytest.raises(ValueError, match="observation_mode"):
         EnvConfig.from_kwargs(perception="surrogate", observation_mode="images")
+    assert EnvConfig().ground_lines is False
+    with pytest.raises(ValueError, match="ground_lines"):
+        EnvConfig.from_kwargs(perception="surrogate", ground_lines=True)
+    with pytest.raises(ValueError, match="ground_lines"):
+        EnvConfig.from_kwargs(ground_lines="yes")
 
 
 def test_the_packaged_rates_are_valid_and_bad_rates_are_value_errors() -> None:
