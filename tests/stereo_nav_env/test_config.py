@@ -112,6 +112,7 @@ def test_derived_values_are_properties() -> None:
         "eps",
         "model_max_situations",
         "close_faces",
+        "ground_lines",
         "perception",
         "memory",
         "diagnostics",
