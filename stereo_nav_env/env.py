@@ -379,14 +379,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
                 for image, lv in zip(self._clean_pair, levels, strict=True)
             ]
         watch.lap("noise")
-        return perceive(
-            grey[0],
-            grey[1],
-            self.rig,
-            head,
-            ground_lines=cfg.ground_lines,
-            **settings,
-        )
+        return perceive(grey[0], grey[1], self.rig, head, ground_lines=cfg.ground_lines, **settings)
 
     def _observe(self, watch: Stopwatch, contacts: tuple[Contact, ...] = ()) -> Obs:
         """Perceive (render and run the pipeline, or the surrogate), fuse the view and ``contacts``
