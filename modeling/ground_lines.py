@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 from modeling.observation import FloorObservation, FloorSegment
 from modeling.rig import HeadPose, StereoRig
 from modeling.segments import ImageSegments
-from modeling.validation import positive, with_overrides
+from modeling.validation import instance, positive, with_overrides
 
 __all__ = [
     "GROUND_SOURCE",
@@ -169,10 +169,8 @@ def ground_segments(
     """
     if not isinstance(left, ImageSegments):
         raise ValueError(f"left must be ImageSegments, got {type(left).__name__}")
-    if not isinstance(rig, StereoRig):
-        raise ValueError(f"rig must be a StereoRig, got {type(rig).__name__}")
-    if not isinstance(head_pose, HeadPose):
-        raise ValueError(f"head_pose must be a HeadPose, got {type(head_pose).__name__}")
+    instance(rig, StereoRig, "rig")
+    instance(head_pose, HeadPose, "head_pose")
     opts = with_overrides(options, GroundLineOptions, overrides)
     lines = lowest_lines(left.horizontal, opts)
     if lines.shape[0] == 0:

@@ -25,7 +25,7 @@ from modeling.observation import FloorObservation
 from modeling.rig import HeadPose, StereoRig
 from modeling.segments import SegmentOptions, extract_segment_pair
 from modeling.triangulation import TriangulationOptions, triangulate_to_floor
-from modeling.validation import positive, with_overrides
+from modeling.validation import instance, positive, with_overrides
 
 if TYPE_CHECKING:  # pragma: no cover
     from modeling.model import EnvironmentModel
@@ -119,8 +119,7 @@ def stereo_to_floor(
     """
     gl = to_gray(left, "left")
     gr = to_gray(right, "right")
-    if not isinstance(rig, StereoRig):
-        raise ValueError(f"rig must be a StereoRig, got {type(rig).__name__}")
+    instance(rig, StereoRig, "rig")
     want = (rig.height_px, rig.width_px)
     if gl.shape != want:
         raise ValueError(f"left must be {want[0]}x{want[1]} pixels (the rig's), got {gl.shape}")

@@ -67,7 +67,7 @@ from modeling._compiled.edge import (
     segment_fits,
 )
 from modeling.rig import StereoRig
-from modeling.validation import FloatArray, positive, with_overrides
+from modeling.validation import FloatArray, instance, positive, with_overrides
 from modeling.worker import worker
 
 __all__ = [
@@ -399,8 +399,7 @@ def _sigma_px(rig: StereoRig | None) -> float:
     """The per-point sigma's floor: ``rig.sigma_px`` (of ``StereoRig()`` when ``rig`` is None)."""
     if rig is None:
         return _DEFAULT_SIGMA_PX
-    if not isinstance(rig, StereoRig):
-        raise ValueError(f"rig must be a StereoRig, got {type(rig).__name__}")
+    instance(rig, StereoRig, "rig")
     return float(rig.sigma_px)
 
 

@@ -48,7 +48,7 @@ from modeling._compiled.tri import FloorFrame, FloorRows, MatchRows, floor_rows
 from modeling.matching import StereoMatches
 from modeling.observation import P_NONE_ATOL, AmbiguousSegment, FloorObservation, FloorSegment
 from modeling.rig import HeadPose, StereoRig
-from modeling.validation import FloatArray, number, with_overrides
+from modeling.validation import FloatArray, instance, number, with_overrides
 
 __all__ = [
     "TriangulationOptions",
@@ -339,10 +339,8 @@ def triangulate_to_floor(
     """
     if not isinstance(matches, StereoMatches):
         raise ValueError(f"matches must be a StereoMatches, got {type(matches).__name__}")
-    if not isinstance(rig, StereoRig):
-        raise ValueError(f"rig must be a StereoRig, got {type(rig).__name__}")
-    if not isinstance(head_pose, HeadPose):
-        raise ValueError(f"head_pose must be a HeadPose, got {type(head_pose).__name__}")
+    instance(rig, StereoRig, "rig")
+    instance(head_pose, HeadPose, "head_pose")
     opts = with_overrides(options, TriangulationOptions, overrides)
     cx, cy = rig.principal_point_px
     frame = FloorFrame(

@@ -122,6 +122,12 @@ def integer(value: Any, name: str, *, low: int | None = None) -> int:
     return int(value)
 
 
+def instance(value: Any, cls: type[Any], name: str) -> None:
+    """Nothing if ``value`` is a ``cls``; else a ``ValueError`` naming ``name`` and both types."""
+    if not isinstance(value, cls):
+        raise ValueError(f"{name} must be a {cls.__name__}, got {type(value).__name__}")
+
+
 def boolean(value: Any, name: str) -> bool:
     """``True`` or ``False`` (nothing else)."""
     if not isinstance(value, bool):
