@@ -51,7 +51,7 @@ soak: $(STAMP)
 fuzz: $(STAMP)
 	HYPOTHESIS_PROFILE=soak $(PY) -m pytest -q -n 2 --hypothesis-show-statistics \
 		tests/modeling/test_robustness.py \
-		tests/stereo_nav_env/test_map_validation.py::test_mutated_maps_are_refused_or_load
+		tests/stereo_nav_env/sim/test_map_validation.py::test_mutated_maps_are_refused_or_load
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .ruff_cache .mypy_cache

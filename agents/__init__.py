@@ -39,23 +39,23 @@ def make_agent(name: str, env: Any = None, **kwargs: Any) -> Agent:
     if not isinstance(name, str):
         raise ValueError(f"name must be a string, got {name!r}")
     if name == "random":
-        from agents.scripted import RandomAgent
+        from agents.baselines import RandomAgent
 
         agent: Agent = RandomAgent(**kwargs)
     elif name == "oracle":
-        from agents.scripted import OracleAgent
+        from agents.baselines import OracleAgent
 
         agent = OracleAgent(**kwargs)
     elif name in ("greedy", "cautious", "planner"):
-        from agents.navigator import ModelBasedAgent
+        from agents.planning.navigator import ModelBasedAgent
 
         agent = ModelBasedAgent(name, **kwargs)
     elif name.startswith("ppo:") and len(name) > 4:
-        from agents.ppo import PPOAgent
+        from agents.learning.ppo import PPOAgent
 
         agent = PPOAgent(name[4:], **kwargs)
     elif name.startswith("rllib:") and len(name) > 6:
-        from agents.rllib_agent import RLlibAgent
+        from agents.learning.rllib.agent import RLlibAgent
 
         agent = RLlibAgent(name[6:], **kwargs)
     else:

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling.model import EnvironmentModel
+from modeling.model.records import EnvironmentModel
 
 if TYPE_CHECKING:
     from stereo_nav_env.config import EnvConfig

@@ -14,38 +14,38 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 _EXPORTS: dict[str, str] = {
-    "StereoRig": "modeling.rig",
-    "HeadPose": "modeling.rig",
+    "StereoRig": "modeling.stereo.rig",
+    "HeadPose": "modeling.stereo.rig",
     "FloorSegment": "modeling.observation",
     "AmbiguousSegment": "modeling.observation",
     "FloorObservation": "modeling.observation",
-    "ImageSegments": "modeling.segments",
-    "extract_segments": "modeling.segments",
-    "extract_segment_pair": "modeling.segments",
-    "SegmentOptions": "modeling.segments",
-    "MatchOptions": "modeling.matching",
-    "TriangulationOptions": "modeling.triangulation",
-    "FaceOptions": "modeling.faces",
-    "ModelOptions": "modeling.model",
-    "StereoMatches": "modeling.matching",
-    "match_segments": "modeling.matching",
-    "triangulate_to_floor": "modeling.triangulation",
-    "close_faces": "modeling.faces",
-    "gap_passable_probability": "modeling.gaps",
-    "Relation": "modeling.gaps",
-    "classify_gap": "modeling.gaps",
-    "build_model": "modeling.model",
-    "EnvironmentModel": "modeling.records",
-    "Situation": "modeling.records",
-    "Obstacle": "modeling.records",
-    "CriticalRegion": "modeling.records",
-    "Passage": "modeling.records",
+    "ImageSegments": "modeling.stereo.segments",
+    "extract_segments": "modeling.stereo.segments",
+    "extract_segment_pair": "modeling.stereo.segments",
+    "SegmentOptions": "modeling.stereo.segments",
+    "MatchOptions": "modeling.stereo.matching",
+    "TriangulationOptions": "modeling.stereo.triangulation",
+    "FaceOptions": "modeling.stereo.faces",
+    "ModelOptions": "modeling.model.build",
+    "StereoMatches": "modeling.stereo.matching",
+    "match_segments": "modeling.stereo.matching",
+    "triangulate_to_floor": "modeling.stereo.triangulation",
+    "close_faces": "modeling.stereo.faces",
+    "gap_passable_probability": "modeling.model.gaps",
+    "Relation": "modeling.model.gaps",
+    "classify_gap": "modeling.model.gaps",
+    "build_model": "modeling.model.build",
+    "EnvironmentModel": "modeling.model.records",
+    "Situation": "modeling.model.records",
+    "Obstacle": "modeling.model.records",
+    "CriticalRegion": "modeling.model.records",
+    "Passage": "modeling.model.records",
     "model_from_stereo": "modeling.pipeline",
-    "MemoryOptions": "modeling.memory",
-    "ModelMemory": "modeling.memory",
-    "fuse": "modeling.memory",
-    "add_contact": "modeling.memory",
-    "build_memory_model": "modeling.memory",
+    "MemoryOptions": "modeling.memory.options",
+    "ModelMemory": "modeling.memory.fusion",
+    "fuse": "modeling.memory.fusion",
+    "add_contact": "modeling.memory.fusion",
+    "build_memory_model": "modeling.memory.fusion",
 }
 
 __all__ = [
@@ -84,28 +84,29 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
-    from modeling.faces import FaceOptions, close_faces
-    from modeling.gaps import Relation, classify_gap, gap_passable_probability
-    from modeling.matching import MatchOptions, StereoMatches, match_segments
-    from modeling.memory import (
-        MemoryOptions,
-        ModelMemory,
-        add_contact,
-        build_memory_model,
-        fuse,
+    from modeling.memory.fusion import ModelMemory, add_contact, build_memory_model, fuse
+    from modeling.memory.options import MemoryOptions
+    from modeling.model.build import ModelOptions, build_model
+    from modeling.model.gaps import Relation, classify_gap, gap_passable_probability
+    from modeling.model.records import (
+        CriticalRegion,
+        EnvironmentModel,
+        Obstacle,
+        Passage,
+        Situation,
     )
-    from modeling.model import ModelOptions, build_model
     from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
     from modeling.pipeline import model_from_stereo
-    from modeling.records import CriticalRegion, EnvironmentModel, Obstacle, Passage, Situation
-    from modeling.rig import HeadPose, StereoRig
-    from modeling.segments import (
+    from modeling.stereo.faces import FaceOptions, close_faces
+    from modeling.stereo.matching import MatchOptions, StereoMatches, match_segments
+    from modeling.stereo.rig import HeadPose, StereoRig
+    from modeling.stereo.segments import (
         ImageSegments,
         SegmentOptions,
         extract_segment_pair,
         extract_segments,
     )
-    from modeling.triangulation import TriangulationOptions, triangulate_to_floor
+    from modeling.stereo.triangulation import TriangulationOptions, triangulate_to_floor
 
 
 def __getattr__(name: str) -> Any:

@@ -2,7 +2,7 @@
 
 Public, so that every package compiles its loops the same way: the loops of :mod:`modeling` (in
 the private :mod:`modeling._compiled`) and the env's pixel-noise lookup
-(:mod:`stereo_nav_env.perception`).
+(:mod:`stereo_nav_env.perception.stereo`).
 
 ``import modeling`` does not import Numba (it costs about half a second); each loop is compiled,
 or loaded from Numba's on-disk cache (next to the source), the first time it is called, with the

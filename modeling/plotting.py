@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from modeling.records import EnvironmentModel
+from modeling.model.records import EnvironmentModel
 
 __all__ = ["plot_model", "plot_models"]
 

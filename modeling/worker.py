@@ -2,9 +2,9 @@
 
 Used where the work releases the interpreter lock, so the two threads run on two cores at once:
 OpenCV's line detector on the right image while the left one is detected
-(:func:`modeling.segments.extract_segment_pair`, 0.9-2.8 ms per env step), and the env's pixel
-noise drawn while the pair renders (:mod:`stereo_nav_env.env`, about 0.4 ms per step). Public so
-that both packages share the one thread. Made on first use and made again in a forked child
+(:func:`modeling.stereo.segments.extract_segment_pair`, 0.9-2.8 ms per env step), and the env's
+pixel noise drawn while the pair renders (:mod:`stereo_nav_env.env`, about 0.4 ms per step). Public
+so that both packages share the one thread. Made on first use and made again in a forked child
 (where the parent's thread does not exist); callers never wait for the worker from inside it.
 """
 

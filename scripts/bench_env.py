@@ -21,8 +21,8 @@ contact fused into the episode's memory, memory_model: the fused model built, pa
 diagnostics: of both models).
 
 The surrogate row: in every round, the same drive and seed through ``perception="surrogate"``
-(:mod:`stereo_nav_env.surrogate`, nothing rendered) side by side with a second stereo env
-(``v0_stereo_env_step_ms``, ``v0_stereo_env_steps_per_s``): ``surrogate_env_step_ms``,
+(:mod:`stereo_nav_env.perception.surrogate.sensor`, nothing rendered) side by side with a second
+stereo env (``v0_stereo_env_step_ms``, ``v0_stereo_env_steps_per_s``): ``surrogate_env_step_ms``,
 ``surrogate_env_steps_per_s`` and ``surrogate_over_stereo_steps_per_s`` (its steps per second
 over that stereo env's, per round, then the median). The training pair: the same drive through
 the env ``train.py`` builds (``StereoNav-v1``, ``memory=False``, ``diagnostics=False``) with each

@@ -14,8 +14,8 @@ and its median is that phase's, not the machine's.
 * ``modeling_30_ambiguous_ms``: 60 floor segments plus 30 ambiguous segments with 3 candidates each,
   in independent groups, to the top ``max_situations`` (64) situations with exact probabilities.
 * ``topology_200_segments_path_graph_ms`` and ``topology_200_segments_routes_ms``: the path graph
-  (``modeling.topology.path_graph``) of the 200-segment model across its whole width, and its 5
-  shortest distinct routes (a stress case: about 100 obstacles and 245 critical regions).
+  (``modeling.model.topology.path_graph``) of the 200-segment model across its whole width, and its
+  5 shortest distinct routes (a stress case: about 100 obstacles and 245 critical regions).
 """
 
 from __future__ import annotations
@@ -30,9 +30,9 @@ from collections.abc import Callable
 import numpy as np
 from _figures import print_figures, write_figures
 
-from modeling.model import build_model
+from modeling.model.build import build_model
+from modeling.model.topology import path_graph, routes
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
-from modeling.topology import path_graph, routes
 
 ROBOT_WIDTH_M = 0.5
 

@@ -20,9 +20,9 @@ from collections.abc import Sequence
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 from _figures import print_figures, write_figures
 
-from modeling.rig import HeadPose, StereoRig
-from stereo_nav_env.render import StereoRenderer
-from stereo_nav_env.scenes import load_scenario
+from modeling.stereo.rig import HeadPose, StereoRig
+from stereo_nav_env.rendering.renderer import StereoRenderer
+from stereo_nav_env.sim.scenes import load_scenario
 
 DEFAULT_SIZES = ((160, 120), (320, 240), (640, 480))
 

@@ -2,9 +2,9 @@
 
     python scripts/bench_stereo.py [--json FILE] [--n-scenes N] [--seed S] [--noise SIGMA] [--quick]
 
-Prints the figures that :mod:`stereo_nav_env.stereo_eval` defines, measured on 20 seeded scenes
-of every family by default, the stage times the median of 5 runs per view (``--quick``: at most
-4 scenes, timed once).
+Prints the figures that :mod:`agents.evaluation.stereo_accuracy` defines, measured on 20 seeded
+scenes of every family by default, the stage times the median of 5 runs per view (``--quick``: at
+most 4 scenes, timed once).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
 from _figures import print_figures, write_figures
 
-from stereo_nav_env.stereo_eval import evaluate, summarise
+from agents.evaluation.stereo_accuracy import evaluate, summarise
 
 
 def run(

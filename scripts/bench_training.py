@@ -5,8 +5,8 @@
 
 All four runs happen in this one process, one after the other, on the env kwargs that
 ``scripts/train.py`` builds (``scenario``, ``perception``, ``diagnostics=False``,
-``memory=False``) and with :class:`~agents.training.TrainConfig`'s PPO settings (the rollout of
-``rollout_steps`` over all envs or runners, minibatch, epochs, ``net_arch``) but
+``memory=False``) and with :class:`~agents.learning.training.TrainConfig`'s PPO settings (the
+rollout of ``rollout_steps`` over all envs or runners, minibatch, epochs, ``net_arch``) but
 ``eval_freq=0`` and ``checkpoint_freq=0``: ``train_ppo`` (sb3; 2 envs in ``SubprocVecEnv``
 processes) and ``train_rllib`` (RLlib's new API stack, an MLP of ``net_arch`` on the flattened
 observation; each runner a Ray worker process).
@@ -31,8 +31,8 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 from _figures import print_figures, write_figures
 
 import stereo_nav_env  # noqa: F401  (registers the ids)
-from agents.rllib_backend import RLlibOptions, train_rllib
-from agents.training import TrainConfig, train_ppo
+from agents.learning.rllib.backend import RLlibOptions, train_rllib
+from agents.learning.training import TrainConfig, train_ppo
 
 RUNS = (("sb3", 1), ("sb3", 2), ("rllib", 1), ("rllib", 2))
 """(backend, envs or env runners) of each run, in order."""

@@ -77,9 +77,9 @@ def _section_doc(name: str, module: ModuleType) -> str:
     """The method of a section: its script's docstring (and the stereo evaluation module's)."""
     doc = docstring_markdown(module.__doc__)
     if name == "stereo":
-        from stereo_nav_env import stereo_eval
+        from agents.evaluation import stereo_accuracy
 
-        doc += "\n" + docstring_markdown(stereo_eval.__doc__)
+        doc += "\n" + docstring_markdown(stereo_accuracy.__doc__)
     return doc
 
 

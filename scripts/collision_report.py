@@ -10,12 +10,12 @@ pan, the contact's bearing from the body heading and in how many earlier steps t
 lay in the field of view beyond the blind band (``EnvConfig.blind_range_m``) and within
 ``--view-range`` metres: a contact point often in view was something the model could have shown.
 For the model-based agents (``greedy``, ``cautious``, ``planner``) also what their occupancy map
-(:class:`agents.gridmap.OccupancyMemory`) knew of the contact point: ``held_before`` (a cell
-within 0.2 m of it counted as an obstacle just before the step) and ``ever_held`` (one had had
+(:class:`agents.planning.gridmap.OccupancyMemory`) knew of the contact point: ``held_before`` (a
+cell within 0.2 m of it counted as an obstacle just before the step) and ``ever_held`` (one had had
 positive log-odds at some earlier step of the episode: held, then cleared, when not
 ``held_before``). With ``--memory`` (the env keeps its fused memory, which the agents do not
 read: the same episodes) also ``fused_distance_m``, the distance from the contact point to the
-nearest segment of the env's fused memory (:class:`modeling.memory.ModelMemory`, existence at
+nearest segment of the env's fused memory (:class:`modeling.memory.fusion.ModelMemory`, existence at
 least 0.5) just before the step (null when it held none). Prints counts by family and kind,
 and of the first contacts (no contact in the 10 steps before) how many the map had ever held
 and how many the fused memory held within 0.1 m; the JSON has every collision step.
@@ -41,7 +41,7 @@ from evaluate import suite_config
 
 import stereo_nav_env  # noqa: F401  (registers the ids)
 from agents import make_agent
-from agents.evaluation import ENV_ID, suite_episodes
+from agents.evaluation.suite import ENV_ID, suite_episodes
 from modeling.geometry import wrap_angle
 
 

@@ -29,7 +29,7 @@ import gymnasium as gym
 import numpy as np
 
 import stereo_nav_env  # noqa: F401  (registers the ids)
-from modeling.faces import FACE_SOURCE
+from modeling.stereo.faces import FACE_SOURCE
 
 PERCEPTIONS = ("stereo", "surrogate")
 

@@ -3,7 +3,7 @@
     python scripts/demo.py [--scenario NAME] [--seed N] [--out DIR]
 
 Writes ``episode.gif``, ``model_steps.png`` and ``summary.json`` into ``--out`` (default
-``out/demo``), printing one line per step. The logic is in :mod:`agents.demo`.
+``out/demo``), printing one line per step. The logic is in :mod:`agents.evaluation.demo`.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import os
 import pathlib
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-from agents.demo import DemoResult, run_demo
+from agents.evaluation.demo import DemoResult, run_demo
 
 
 def main(argv: list[str] | None = None) -> DemoResult:

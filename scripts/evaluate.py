@@ -9,7 +9,7 @@ The suite runs under the StereoNav-v1 rules; each agent's JSON entry records the
 carries 95 % bootstrap intervals of its rates (keys ending in "_ci").
 
 Agent names: random, greedy, cautious, planner, oracle, ppo:PATH, rllib:PATH. The logic is in
-:mod:`agents.evaluation`.
+:mod:`agents.evaluation.suite`.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from typing import Any
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
-from agents.evaluation import (
+from agents.evaluation.suite import (
     SuiteConfig,
     episode_records,
     evaluate,
@@ -58,7 +58,7 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
         "--perception",
         choices=("stereo", "surrogate"),
         default="stereo",
-        help="the env's perception (surrogate: no rendering, stereo_nav_env.surrogate)",
+        help="the env's perception (surrogate: no rendering; stereo_nav_env.perception.surrogate)",
     )
     parser.add_argument(
         "--tilt",
@@ -77,7 +77,7 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
         "--ground-lines",
         action="store_true",
         help="the env's lowest near-horizontal image lines enter as floor segments "
-        "(EnvConfig.ground_lines, modeling.ground_lines; stereo only)",
+        "(EnvConfig.ground_lines, modeling.stereo.ground_lines; stereo only)",
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)

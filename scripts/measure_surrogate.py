@@ -6,19 +6,19 @@
 Views: for each family and ``--scenes`` seeded scenes, the head poses of a scripted drive
 (``--steps`` steps, the env with the surrogate perception drives it: the poses do not depend on
 perception), and the views facing the front of a bookshelf of
-:func:`stereo_nav_env.stereo_eval.scene_views`. Each view is rendered with 2 grey levels of pixel
-noise and run through the stereo stages (extraction, matching, triangulation). The truth is the
-set of vertical edges the head sees (:func:`stereo_nav_env.surrogate_visibility.visible_edges`:
-where they are in the image, their true disparity ``f b / Z``). A segment images the seen edge
-nearest to it whose column (in its image: ``u - f b / Z`` in the right one) is within 2 px of its
-middle and whose rows hold that middle (one edge each: a leg's outline segment does not also
-find the leg's front corner two pixels away); an edge is found when a matched left segment
-images it (the nearest, when several do); then:
+:func:`agents.evaluation.stereo_accuracy.scene_views`. Each view is rendered with 2 grey levels of
+pixel noise and run through the stereo stages (extraction, matching, triangulation). The truth is
+the set of vertical edges the head sees
+(:func:`stereo_nav_env.perception.surrogate.visibility.visible_edges`: where they are in the image,
+their true disparity ``f b / Z``). A segment images the seen edge nearest to it whose column (in its
+image: ``u - f b / Z`` in the right one) is within 2 px of its middle and whose rows hold that
+middle (one edge each: a leg's outline segment does not also find the leg's front corner two pixels
+away); an edge is found when a matched left segment images it (the nearest, when several do); then:
 
-* ``detection`` (per edge class, :data:`stereo_nav_env.surrogate.EDGE_CLASSES`, and depth bin):
-  of the seen edges with contrast in both images (a piece in each,
-  :func:`stereo_nav_env.surrogate_photometry.image_pieces`: the surrogate drops the others
-  itself), the fractions a segment images in both images, in the left one only, in the right
+* ``detection`` (per edge class, :data:`stereo_nav_env.perception.surrogate.sensor.EDGE_CLASSES`,
+  and depth bin): of the seen edges with contrast in both images (a piece in each,
+  :func:`stereo_nav_env.perception.surrogate.photometry.image_pieces`: the surrogate drops the
+  others itself), the fractions a segment images in both images, in the left one only, in the right
   one only;
 * ``end_loss_px``: how far the left segment of an edge imaged by one stops short of each end of
   the edge's seen run (the median);
@@ -58,22 +58,22 @@ import numpy as np
 from numpy.typing import NDArray
 
 import stereo_nav_env  # noqa: F401  (registers the ids)
-from modeling.matching import StereoMatches, match_segments
-from modeling.rig import HeadPose, StereoRig
-from modeling.segments import ImageSegments, SegmentOptions, extract_segment_pair
-from stereo_nav_env.render import StereoRenderer
-from stereo_nav_env.scenes import ObstacleKind, Scene
-from stereo_nav_env.stereo_eval import FAMILIES, noisy_gray, scene_views
-from stereo_nav_env.surrogate import (
+from agents.evaluation.stereo_accuracy import FAMILIES, noisy_gray, scene_views
+from modeling.stereo.matching import StereoMatches, match_segments
+from modeling.stereo.rig import HeadPose, StereoRig
+from modeling.stereo.segments import ImageSegments, SegmentOptions, extract_segment_pair
+from stereo_nav_env.perception.surrogate.photometry import image_pieces
+from stereo_nav_env.perception.surrogate.rates import (
     EDGE_CLASSES,
     RATES_FILE,
     SurrogateRates,
     default_rates,
     edge_classes,
-    surrogate_segments,
 )
-from stereo_nav_env.surrogate_photometry import image_pieces
-from stereo_nav_env.surrogate_visibility import SceneEdges, VisibleEdges, visible_edges
+from stereo_nav_env.perception.surrogate.sensor import surrogate_segments
+from stereo_nav_env.perception.surrogate.visibility import SceneEdges, VisibleEdges, visible_edges
+from stereo_nav_env.rendering.renderer import StereoRenderer
+from stereo_nav_env.sim.scenes import ObstacleKind, Scene
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 DEPTH_BINS_M = (0.0, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0)
@@ -335,8 +335,8 @@ def miss_by_depth(rec: dict[str, list[Any]], cls: int) -> list[float]:
 
 def detection_by_depth(rec: dict[str, list[Any]], cls: int) -> list[list[float]]:
     """Per depth bin, the fractions of the seen edges of one class with contrast in both images
-    (a piece in each, :func:`~stereo_nav_env.surrogate_photometry.image_pieces`) imaged in both
-    images, in the left one only, in the right one only; a bin of fewer than
+    (a piece in each, :func:`~stereo_nav_env.perception.surrogate.photometry.image_pieces`) imaged
+    in both images, in the left one only, in the right one only; a bin of fewer than
     ``MIN_EDGES_PER_BIN`` edges takes the nearest bin's that has them (none: all bins pooled)."""
     sel = [k for k in _of_class(rec, cls) if not math.isnan(rec["seen_in"][k][0])]
     d = np.asarray([rec["depth"][k] for k in sel], dtype=np.float64)
@@ -418,7 +418,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--out",
         type=pathlib.Path,
-        default=ROOT / "stereo_nav_env" / "data" / RATES_FILE,
+        default=ROOT / "stereo_nav_env" / "perception" / "surrogate" / "data" / RATES_FILE,
         help="the rates table to write",
     )
     parser.add_argument("--dry-run", action="store_true", help="print, write nothing")

@@ -7,9 +7,10 @@
 Runs the suite of ``scripts/evaluate.py`` (the same arguments, the same env) once with
 ``perception="stereo"`` and once with ``"surrogate"``, and writes per agent both summaries and the
 paired differences of success and SPL with their 95 % bootstrap intervals
-(:mod:`agents.perception_cost`). ``--from-details`` runs nothing: it pairs the per-episode files
-that two ``scripts/evaluate.py --details FILE`` runs wrote, one with ``--perception stereo`` and
-one with ``--perception surrogate`` (run them at once on two cores), with the same suite arguments.
+(:mod:`agents.evaluation.perception_cost`). ``--from-details`` runs nothing: it pairs the
+per-episode files that two ``scripts/evaluate.py --details FILE`` runs wrote, one with
+``--perception stereo`` and one with ``--perception surrogate`` (run them at once on two cores),
+with the same suite arguments.
 """
 
 from __future__ import annotations
@@ -25,8 +26,8 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
 from evaluate import suite_config
 
-from agents.evaluation import EpisodeResult, evaluate
-from agents.perception_cost import PERCEPTIONS, perception_cost, perception_markdown
+from agents.evaluation.perception_cost import PERCEPTIONS, perception_cost, perception_markdown
+from agents.evaluation.suite import EpisodeResult, evaluate
 
 
 def _read_details(path: pathlib.Path, agents: list[str]) -> dict[str, list[EpisodeResult]]:

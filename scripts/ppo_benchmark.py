@@ -7,7 +7,7 @@
 Each DIR is a train.py output (its ppo_final.zip, curve.csv, summary.json); every run's policy
 plays the same suite episodes of each family (StereoNav-v1 rules, stereo perception by
 default). The JSON holds, per family, the mean over seeds with 95 % bootstrap intervals and
-each seed's figures, and the runs' training budgets. The logic is in :mod:`agents.seeds`.
+each seed's figures, and the runs' training budgets. The logic is in :mod:`agents.learning.seeds`.
 """
 
 from __future__ import annotations
@@ -20,8 +20,8 @@ from typing import Any
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
-from agents.evaluation import SuiteConfig, evaluate
-from agents.seeds import plot_seed_curves, seed_summary, seed_table
+from agents.evaluation.suite import SuiteConfig, evaluate
+from agents.learning.seeds import plot_seed_curves, seed_summary, seed_table
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:

@@ -5,7 +5,7 @@
 Prints a Markdown table (resident memory and open descriptors after a warm-up and at the end of
 each phase, iteration times, whether the phase finished before its deadline) and exits non-zero
 when a phase hung, grew by more than ``--max-rss-growth-mb`` or gained descriptors. The logic is
-in :mod:`stereo_nav_env.soak`.
+in :mod:`agents.evaluation.soak`.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import sys
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
-from stereo_nav_env.soak import create_close_cycles, format_table, random_steps, vector_steps
+from agents.evaluation.soak import create_close_cycles, format_table, random_steps, vector_steps
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -6,7 +6,7 @@
         [--seed S] [--rollout-steps N] [--batch-size N] [--n-epochs N] [--ent-coef C]
         [--max-minutes M] [--backend sb3|rllib] [--num-env-runners N] [--address RAY]
 
---backend rllib trains with Ray RLlib instead (agents.rllib_backend, docs/rllib.md): N env
+--backend rllib trains with Ray RLlib instead (agents.learning.rllib.backend, docs/rllib.md): N env
 runner processes, on a local Ray or on the cluster at --address; it writes DIR/checkpoint/
 (evaluate it as rllib:DIR/checkpoint), DIR/tb/, DIR/results.jsonl and DIR/rules.json.
 
@@ -14,8 +14,8 @@ Writes DIR/ppo_final.zip, DIR/checkpoints/, DIR/best/, DIR/eval/, DIR/tb/ (Tenso
 DIR/curve.csv, DIR/learning_curve.png, DIR/rules.json (the episode rules, those of
 evaluate.py) and DIR/summary.json (steps per second, the curriculum's stages). The defaults
 (one env per core, 2,048-step rollouts, minibatch 256, 4 epochs, entropy 0.01, 128 x 128,
-normalised rewards) are :class:`agents.training.TrainConfig`'s; the logic is in
-:mod:`agents.training`.
+normalised rewards) are :class:`agents.learning.training.TrainConfig`'s; the logic is in
+:mod:`agents.learning.training`.
 """
 
 from __future__ import annotations
@@ -26,8 +26,8 @@ import pathlib
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
-from agents.rllib_backend import RLlibOptions, RLlibResult, train_rllib
-from agents.training import ALGOS, CURRICULUM, TrainConfig, TrainResult, train_ppo
+from agents.learning.rllib.backend import RLlibOptions, RLlibResult, train_rllib
+from agents.learning.training import ALGOS, CURRICULUM, TrainConfig, TrainResult, train_ppo
 
 
 def _add_backend_arguments(parser: argparse.ArgumentParser) -> None:

@@ -2,7 +2,7 @@
 
 :class:`EnvConfig` nests one sub-configuration per concern, and every value has one home:
 
-* ``world``: :class:`~stereo_nav_env.world.WorldConfig` (robot size, dynamics, step length),
+* ``world``: :class:`~stereo_nav_env.sim.world.WorldConfig` (robot size, dynamics, step length),
 * ``camera``: :class:`CameraConfig` (image size, focal length, baseline, pixel noise),
 * ``observation``: :class:`ObservationConfig` (what the observation holds and how big it is),
 * ``rewards``: :class:`RewardConfig` (the reward weights),
@@ -30,14 +30,14 @@ from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
-from modeling.rig import StereoRig
+from modeling.stereo.rig import StereoRig
 from modeling.validation import boolean, from_flat, integer, number
-from stereo_nav_env.scenes import FAMILIES, available_maps
-from stereo_nav_env.world import WorldConfig
+from stereo_nav_env.perception.base import PerceptionName
+from stereo_nav_env.sim.scenes import FAMILIES, available_maps
+from stereo_nav_env.sim.world import WorldConfig
 
 __all__ = [
     "OBSERVATION_MODES",
-    "PERCEPTIONS",
     "REGION_FEATURES",
     "RULES",
     "RULE_FIELDS",
@@ -45,6 +45,7 @@ __all__ = [
     "EnvConfig",
     "ObservationConfig",
     "ObservationMode",
+    "PerceptionName",
     "RewardConfig",
     "WorldConfig",
 ]
@@ -68,9 +69,6 @@ OBSERVATION_MODES = tuple(mode.value for mode in ObservationMode)
 """The values of :class:`ObservationMode` (``"model"``, ``"images"``, ``"both"``, ``"memory"``,
 ``"model_memory"``, ``"policy"``)."""
 
-PERCEPTIONS = ("stereo", "surrogate")
-"""The values of ``EnvConfig.perception``: the rendered stereo pipeline, or its surrogate."""
-
 REGION_FEATURES = (
     "valid",
     "x_m",
@@ -85,7 +83,8 @@ REGION_FEATURES = (
     "axis_y",
     "radius_m",
 )
-"""Names of the F columns of ``obs["critical_regions"]`` (see :mod:`stereo_nav_env.observation`)."""
+"""Names of the F columns of ``obs["critical_regions"]`` (see
+:mod:`stereo_nav_env.observation.packing`)."""
 
 
 RULES: dict[str, dict[str, Any]] = {
@@ -138,7 +137,7 @@ class CameraConfig:
             levels (rounded to whole grey levels, the same value on its three channels; 0 =
             none), drawn from the env's ``np_random``.
         tilt_rad: Pitch of the head's optical axis below the horizon, radians (positive: looking
-            down), in (-pi/2, pi/2) (``modeling.rig.HeadPose.tilt_rad``).
+            down), in (-pi/2, pi/2) (``modeling.stereo.rig.HeadPose.tilt_rad``).
     """
 
     width_px: int = 320
@@ -179,7 +178,7 @@ class ObservationConfig:
             five-channel raster that separates seen-free, occupied, critical, occluded and
             never-seen floor, the situations and regions scaled to [-1, 1], the goal as distance
             over ``goal_range_m`` with its bearing's cos and sin, the head pan, a contact flag
-            and the previous action: :func:`stereo_nav_env.observation.pack_policy`).
+            and the previous action: :func:`stereo_nav_env.observation.packing.pack_policy`).
         num_situations: K, the most probable situations observed (the rest are left out).
         num_regions: R, critical regions kept per situation (the nearest to the robot).
         raster_size_px: Side of the square egocentric raster, pixels (>= 36, SB3's CNN minimum).
@@ -293,19 +292,20 @@ class EnvConfig:
             ``p < eps``), in (0, 0.5).
         model_max_situations: Most situations the model enumerates (``info["model"]``).
         close_faces: Whether a face's bottom edge joining two vertical edges closes the "gap"
-            between them (:mod:`modeling.faces`, an addition to the paper's pipeline).
+            between them (:mod:`modeling.stereo.faces`, an addition to the paper's pipeline).
         ground_lines: Whether the image's lowest near-horizontal lines enter as floor segments
-            where they meet the floor (:mod:`modeling.ground_lines`, an addition to the paper's
-            pipeline; off by default; stereo perception only).
-        perception: ``"stereo"`` (render the pair and run the stereo pipeline) or
-            ``"surrogate"`` (render nothing: the floor observation from the true scene and the
-            stereo's error model and measured rates, :mod:`stereo_nav_env.surrogate`; the
+            where they meet the floor (:mod:`modeling.stereo.ground_lines`, an addition to the
+            paper's pipeline; off by default; stereo perception only).
+        perception: :class:`~stereo_nav_env.perception.base.PerceptionName` (or its value):
+            ``"stereo"`` (render the pair and run the stereo pipeline) or ``"surrogate"``
+            (render nothing: the floor observation from the true scene and the stereo's error
+            model and measured rates, :mod:`stereo_nav_env.perception.surrogate`; the
             observation must then hold no images).
         memory: Whether every view is fused into the episode's memory and its model built
             (``info["memory_model"]``, the ``memory_*`` diagnostics; the ``"memory"`` observation
             modes need it). ``False`` saves that cost (``info["memory_model"]`` is ``None``).
         diagnostics: Whether ``info["diagnostics"]`` compares the model with ground truth.
-        world: The robot and its physics (:class:`~stereo_nav_env.world.WorldConfig`).
+        world: The robot and its physics (:class:`~stereo_nav_env.sim.world.WorldConfig`).
         camera: The stereo camera and its pixel noise (:class:`CameraConfig`).
         observation: What the observation holds (:class:`ObservationConfig`).
         rewards: Reward weights (:class:`RewardConfig`).
@@ -320,7 +320,7 @@ class EnvConfig:
     model_max_situations: int = 64
     close_faces: bool = True
     ground_lines: bool = False
-    perception: str = "stereo"
+    perception: PerceptionName = PerceptionName.STEREO
     memory: bool = True
     diagnostics: bool = True
     world: WorldConfig = field(default_factory=WorldConfig)
@@ -346,10 +346,14 @@ class EnvConfig:
         boolean(self.ground_lines, "ground_lines")
         boolean(self.memory, "memory")
         boolean(self.diagnostics, "diagnostics")
-        if self.perception not in PERCEPTIONS:
+        try:
+            perception = PerceptionName(self.perception)
+        except ValueError:
             raise ValueError(
-                f"perception must be one of {list(PERCEPTIONS)}, got {self.perception!r}"
-            )
+                f"perception must be one of {[p.value for p in PerceptionName]}, "
+                f"got {self.perception!r}"
+            ) from None
+        object.__setattr__(self, "perception", perception)
         _instance(self.world, "world", WorldConfig)
         _instance(self.camera, "camera", CameraConfig)
         _instance(self.observation, "observation", ObservationConfig)
@@ -359,12 +363,12 @@ class EnvConfig:
                 f"observation_mode {self.observation.observation_mode.value!r} observes the "
                 "memory: memory must be True"
             )
-        if self.perception == "surrogate" and self.ground_lines:
+        if not perception.renders_images and self.ground_lines:
             raise ValueError(
                 "ground_lines needs perception='stereo': the surrogate does not imitate the "
                 "near-horizontal image lines"
             )
-        if self.perception == "surrogate" and self.observation.has_images:
+        if not perception.renders_images and self.observation.has_images:
             raise ValueError(
                 "perception='surrogate' renders no images: observation_mode must be 'model', "
                 f"got {self.observation.observation_mode.value!r}"

@@ -36,11 +36,12 @@ are always present.
   the robot, else 0) over the ``gaps_scored`` gaps: 0 is perfect, 0.25 is a coin toss.
 * ``situations``, ``residual_probability``: the model's count of situations and its left-out mass.
 
-The env gives the same figures of the fused model (:func:`modeling.memory.build_memory_model`,
-``info["memory_model"]``) beside these, named ``memory_<name>`` (:func:`memory_diagnostics`:
-``memory_passability_brier``, ``memory_coverage_95``, ...): its fused segments and the candidates
-of the ambiguities still open, against the same true outlines; its gaps scored are those in the
-latest view, as for the single view. Two figures of the ambiguities differ:
+The env gives the same figures of the fused model
+(:func:`modeling.memory.fusion.build_memory_model`, ``info["memory_model"]``) beside these, named
+``memory_<name>`` (:func:`memory_diagnostics`: ``memory_passability_brier``, ``memory_coverage_95``,
+...): its fused segments and the candidates of the ambiguities still open, against the same true
+outlines; its gaps scored are those in the latest view, as for the single view. Two figures of the
+ambiguities differ:
 
 * ``memory_p_true_candidate`` scores the *same* ambiguities as ``p_true_candidate``, those of the
   latest view, each with the memory's belief in its true choice once the view is fused
@@ -65,13 +66,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling.faces import FACE_SOURCE
 from modeling.geometry import wrap_angle
 from modeling.jit import compiled_on_first_call
-from modeling.memory import ModelMemory
-from modeling.memory_association import gated_pairs, stack_of
-from modeling.model import EnvironmentModel
-from stereo_nav_env.scenes import Scene
+from modeling.memory.association import gated_pairs, stack_of
+from modeling.memory.fusion import ModelMemory
+from modeling.model.records import EnvironmentModel
+from modeling.stereo.faces import FACE_SOURCE
+from stereo_nav_env.sim.scenes import Scene
 
 __all__ = [
     "DIAGNOSTIC_NAMES",
@@ -220,8 +221,8 @@ def _outline_errors(points: FloatArray, cov: FloatArray, edges: FloatArray) -> F
 def _outline_figures(model: EnvironmentModel, truth: GroundTruth) -> dict[str, float]:
     """Endpoint figures of the unambiguous segments and the true-candidate figures, at once.
 
-    A face's floor segment (``source == FACE_SOURCE``, :mod:`modeling.faces`) does not count: it
-    joins endpoints that are measured already, and would count them twice."""
+    A face's floor segment (``source == FACE_SOURCE``, :mod:`modeling.stereo.faces`) does not count:
+    it joins endpoints that are measured already, and would count them twice."""
     segs = [s for s in model.observation.segments if s.source != FACE_SOURCE]
     amb = model.observation.ambiguous
     cands = [c for a in amb for c in a.candidates]

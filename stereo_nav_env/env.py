@@ -3,7 +3,7 @@
 Each step: the physics advances and the head pans (:mod:`.world`), the stereo pair is rendered
 (:mod:`.render`) with pixel noise from ``np_random``, the modeling pipeline runs
 (:mod:`.perception`), the view and any contact are fused into the episode's memory and its
-model is built (:mod:`modeling.memory`), the observation is packed (:mod:`.observation`,
+model is built (:mod:`modeling.memory.fusion`), the observation is packed (:mod:`.observation`,
 :mod:`.raster`), the reward is computed (:mod:`.rewards`, :mod:`.geodesic`) and both models are
 compared with the truth (:mod:`.diagnostics`). ``render()`` draws with :mod:`.viewer`.
 Configuration: :mod:`.config`.
@@ -20,17 +20,14 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from modeling.memory import ModelMemory
-from modeling.model import EnvironmentModel
-from modeling.pipeline import to_gray
-from modeling.rig import HeadPose, StereoRig
-from modeling.worker import worker
+from modeling.memory.fusion import ModelMemory
+from modeling.model.records import EnvironmentModel
+from modeling.stereo.rig import HeadPose, StereoRig
 from stereo_nav_env.actions import DISCRETE_ACTIONS, continuous_command, discrete_command
 from stereo_nav_env.config import EnvConfig
 from stereo_nav_env.diagnostics import GroundTruth, memory_diagnostics, model_diagnostics
 from stereo_nav_env.fusion import fuse_view, memory_model_of, memory_options
-from stereo_nav_env.geodesic import GeodesicField
-from stereo_nav_env.observation import (
+from stereo_nav_env.observation.packing import (
     goal_features,
     observation_space,
     pack_memory,
@@ -38,23 +35,15 @@ from stereo_nav_env.observation import (
     pack_policy,
     pan_fraction,
 )
-from stereo_nav_env.perception import (
-    ComparableModel,
-    Stopwatch,
-    add_pixel_noise,
-    draw_noise_levels,
-    noise_of_levels,
-    noisy_grey,
-    perceive,
-)
-from stereo_nav_env.render import StereoRenderer
+from stereo_nav_env.observation.seen import SeenFloor
+from stereo_nav_env.perception import Perception, make_perception
+from stereo_nav_env.perception.base import ComparableModel, StereoPair, Stopwatch
+from stereo_nav_env.rendering.renderer import StereoRenderer
+from stereo_nav_env.rendering.viewer import MapView, draw_background, draw_frame, model_caption
 from stereo_nav_env.rewards import StuckTimer, reward_components
-from stereo_nav_env.scenes import Scene, load_scenario
-from stereo_nav_env.seen import SeenFloor
-from stereo_nav_env.surrogate import perceive_surrogate
-from stereo_nav_env.surrogate_visibility import SceneEdges
-from stereo_nav_env.viewer import MapView, draw_background, draw_frame, model_caption
-from stereo_nav_env.world import Contact, World
+from stereo_nav_env.sim.geodesic import GeodesicField
+from stereo_nav_env.sim.scenes import Scene, load_scenario
+from stereo_nav_env.sim.world import Contact, World
 
 __all__ = ["StereoNavDiscreteEnv", "StereoNavEnv"]
 
@@ -82,10 +71,10 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     is undecided, each with ``p_passable``), the occluded area, and the possible situations of the
     world (one per combination of ambiguous matches) with their probabilities. One addition to
     the paper's pipeline (``close_faces``, on by default): a plain face's bottom edge joining the
-    lower ends of two vertical edges closes the "gap" between them (:mod:`modeling.faces`). Gaps
-    close to the robot's width make passability genuinely uncertain, and looking again from
+    lower ends of two vertical edges closes the "gap" between them (:mod:`modeling.stereo.faces`).
+    Gaps close to the robot's width make passability genuinely uncertain, and looking again from
     elsewhere resolves it. Every view is also fused into the episode's memory
-    (:class:`~modeling.memory.ModelMemory`, paper section 6), whose model is
+    (:class:`~modeling.memory.fusion.ModelMemory`, paper section 6), whose model is
     ``info["memory_model"]``.
 
     ## Action Space
@@ -169,7 +158,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     head, included) apart; `situation_probs`; `critical_regions` over their bounds, in [-1, 1];
     `goal` (3,): distance over ``goal_range_m`` (15 m, clipped to 1), cos and sin of the
     bearing; `head_pan`; `contact` (1,) in {0, 1}; `prev_action` (3,) in [-1, 1].
-    Details: :mod:`stereo_nav_env.observation`, :mod:`stereo_nav_env.raster`.
+    Details: :mod:`stereo_nav_env.observation.packing`, :mod:`stereo_nav_env.observation.raster`.
 
     ## Rewards
     The sum of the named components in ``info["reward_components"]`` (weights in
@@ -191,27 +180,27 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     the default) without ``stuck_progress_m`` of geodesic progress.
 
     ## Info
-    ``model`` (:class:`~modeling.model.EnvironmentModel` of the latest pair, compared by content),
-    ``memory_model`` (the fused model of every view of the episode so far, and its contacts:
-    :func:`modeling.memory.build_memory_model` of ``env.unwrapped.memory``, compared by content),
-    ``diagnostics`` (floats comparing them with the truth: ``nees_mean``, ``coverage_95``,
-    ``passability_brier``, ``p_true_candidate`` and their counts, and the same of the fused model
-    as ``memory_<name>``; a figure with nothing to measure in the view is left out; see
-    :mod:`stereo_nav_env.diagnostics`; empty with ``diagnostics=False``), ``reward_components``
+    ``model`` (:class:`~modeling.model.build.EnvironmentModel` of the latest pair, compared by
+    content), ``memory_model`` (the fused model of every view of the episode so far, and its
+    contacts: :func:`modeling.memory.fusion.build_memory_model` of ``env.unwrapped.memory``,
+    compared by content), ``diagnostics`` (floats comparing them with the truth: ``nees_mean``,
+    ``coverage_95``, ``passability_brier``, ``p_true_candidate`` and their counts, and the same of
+    the fused model as ``memory_<name>``; a figure with nothing to measure in the view is left out;
+    see :mod:`stereo_nav_env.diagnostics`; empty with ``diagnostics=False``), ``reward_components``
     (after a step), ``is_success``, ``collision``, ``scene`` (its name), ``distance_to_goal_m``
     (straight) and ``geodesic_distance_m``.
 
     ## Arguments
     ``gym.make("StereoNav-v0", render_mode=None, **kwargs)``: ``render_mode`` is ``None`` or
     ``"rgb_array"`` (``render()``: a 480 x 960 RGB frame, the true world from above with the model
-    and the left image; :mod:`stereo_nav_env.viewer`). Every other keyword is a field of
+    and the left image; :mod:`stereo_nav_env.rendering.viewer`). Every other keyword is a field of
     :class:`~stereo_nav_env.config.EnvConfig` or of one of its sub-configurations (world, camera,
     observation, rewards), given flat (``robot_width_m=0.6``) or whole (``world=``: an instance
     or a dict); an unknown or invalid one is a ``ValueError`` naming it. The configuration is
     ``env.unwrapped.config``, its stereo rig ``env.unwrapped.rig``. ``perception="surrogate"``
     renders nothing: the floor observation comes from the true scene, the stereo's error model
-    and its measured rates (:mod:`stereo_nav_env.surrogate`), then the same modeling, packing,
-    rewards and diagnostics; the observation must then hold no images.
+    and its measured rates (:mod:`stereo_nav_env.perception.surrogate.sensor`), then the same
+    modeling, packing, rewards and diagnostics; the observation must then hold no images.
 
     ## Version History
     * v0: the model-based observation (situations, critical regions, raster), move-and-look
@@ -252,16 +241,13 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self.memory_model: EnvironmentModel | None = None
         """The model of :attr:`memory` (``info["memory_model"]``)."""
         self.memory_options = memory_options(self.config)
-        """How views and contacts are fused (:class:`~modeling.memory.MemoryOptions`)."""
+        """How views and contacts are fused (:class:`~modeling.memory.fusion.MemoryOptions`)."""
+        self.perception: Perception = make_perception(self.config)
+        """What turns each view into a model (``config.perception``; it owns the renderer)."""
         self.last_timings_ms: dict[str, float] = {}
-        self._clean_pair: tuple[UInt8Image, UInt8Image] | None = None
-        self._noise_levels: NDArray[np.uint16] | None = None
-        self._pair: tuple[UInt8Image, UInt8Image] | None = None
         self._geodesic: GeodesicField | None = None
         self._truth: GroundTruth | None = None
         self._truth_scene: Scene | None = None
-        self._renderer: StereoRenderer | None = None
-        self._edges: tuple[Scene, SceneEdges] | None = None
         self._view: tuple[MapView, UInt8Image] | None = None
         self._steps = 0
         self._return = 0.0
@@ -301,93 +287,32 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         assert self.scene is not None
         return self.scene.footprints()
 
-    def render_stereo(self) -> tuple[UInt8Image, UInt8Image]:
+    def render_stereo(self) -> StereoPair:
         """The noisy rectified pair of the latest observation: copies, uint8 (H, W, 3) each."""
         self._require_world()
-        if self._clean_pair is None:
-            raise RuntimeError("perception='surrogate' renders no stereo pair")
-        left, right = self._noisy_pair()
+        pair = self.perception.stereo_pair()
+        if pair is None:
+            raise RuntimeError(
+                f"perception={self.config.perception.value!r} renders no stereo pair"
+            )
+        left, right = pair
         return left.copy(), right.copy()
-
-    def _noisy_pair(self) -> tuple[UInt8Image, UInt8Image]:
-        """The latest pair with its pixel noise (made on first use, then kept)."""
-        if self._pair is None:
-            assert self._clean_pair is not None
-            left, right = self._clean_pair
-            if self._noise_levels is not None:
-                noise = noise_of_levels(self._noise_levels, self.config.camera.pixel_noise_std)
-                left = add_pixel_noise(left, noise[0])
-                right = add_pixel_noise(right, noise[1])
-            self._pair = (left, right)
-        return self._pair
 
     def stereo_renderer(self) -> StereoRenderer:
         """The renderer of the current scene (made on first use, kept across resets): for tools
         that render poses of their own, e.g. a benchmark timing the pair alone."""
         self._require_world()
         assert self.scene is not None
-        if self._renderer is None:
-            self._renderer = StereoRenderer(self.rig, self.scene)
-        elif self._renderer.scene is not self.scene:
-            self._renderer.set_scene(self.scene)
-        return self._renderer
+        return self.perception.renderer(self.scene)
 
     # ------------------------------------------------------------------ one observation
-    def _perceive(self, watch: Stopwatch) -> ComparableModel:
-        """The model of the current view: the rendered pair through the stereo pipeline, or
-        (``perception="surrogate"``) the surrogate, which renders nothing."""
-        cfg = self.config
-        rig = self.rig
-        head = self.head_pose
-        settings: dict[str, Any] = {  # of the model, the same for both perceptions
-            "robot_width_m": cfg.world.robot_width_m,
-            "robot_height_m": cfg.world.robot_height_m,
-            "eps": cfg.eps,
-            "max_situations": cfg.model_max_situations,
-            "close_faces": cfg.close_faces,
-            "stopwatch": watch,
-        }
-        if cfg.perception == "surrogate":
-            assert self.scene is not None
-            if self._edges is None or self._edges[0] is not self.scene:
-                self._edges = (self.scene, SceneEdges.of(self.scene))
-            return perceive_surrogate(
-                self._edges[1],
-                rig,
-                head,
-                self.np_random,
-                **settings,
-            )
-        sigma = cfg.camera.pixel_noise_std
-        # the pixel noise is drawn in the worker thread while the pair renders (the generator
-        # releases the interpreter lock; nothing else draws from np_random meanwhile, so the
-        # draws are those of drawing it here, before the render): about 0.4 ms a step
-        draw = None
-        if sigma > 0:
-            draw = worker().submit(draw_noise_levels, self.np_random, rig.height_px, rig.width_px)
-        self._clean_pair = self.stereo_renderer().render_stereo(head)
-        levels = None if draw is None else draw.result()
-        watch.lap("render")
-        # the pipeline sees the noisy grey images; the noisy RGB pair (the same noise on every
-        # channel) is made only when someone asks for it (images observation, render_stereo)
-        self._noise_levels, self._pair = levels, None
-        if levels is None:
-            grey = [to_gray(image) for image in self._clean_pair]
-        else:
-            grey = [
-                noisy_grey(image, lv, sigma)
-                for image, lv in zip(self._clean_pair, levels, strict=True)
-            ]
-        watch.lap("noise")
-        return perceive(grey[0], grey[1], self.rig, head, ground_lines=cfg.ground_lines, **settings)
-
     def _observe(self, watch: Stopwatch, contacts: tuple[Contact, ...] = ()) -> Obs:
-        """Perceive (render and run the pipeline, or the surrogate), fuse the view and ``contacts``
-        into the memory (:meth:`_remember`), pack the observation."""
+        """Perceive (:attr:`perception`), fuse the view and ``contacts`` into the memory
+        (:meth:`_remember`), pack the observation."""
         cfg, world, pose = self.config, self._require_world(), self.robot_pose
-        self.model = self._perceive(watch)
-        self._remember(contacts, watch)
         assert self.scene is not None
+        self.model = self.perception.perceive(self.scene, self.head_pose, self.np_random, watch)
+        self._remember(contacts, watch)
         near, ocfg = cfg.blind_range_m, cfg.observation
         pan = np.array([pan_fraction(world.pan_rad, cfg.world.pan_limit_rad)], np.float32)
         if self._seen is not None:  # mode "policy": its own goal field, first as in every mode
@@ -403,8 +328,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             assert self.memory is not None and self.memory_model is not None
             obs.update(pack_memory(self.memory_model, self.memory.seen, pose, ocfg, near_m=near))
         if cfg.observation.has_images:
-            left, right = self._noisy_pair()
-            obs["left"], obs["right"] = left.copy(), right.copy()
+            obs["left"], obs["right"] = self.render_stereo()
         watch.lap("packing")
         return obs
 
@@ -549,7 +473,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             gaze_rad=state.gaze_rad,
             robot_radius_m=self.config.world.robot_radius_m,
             goal_radius_m=self.config.goal_radius_m,
-            left_image=None if self._clean_pair is None else self._noisy_pair()[0],
+            left_image=None if (pair := self.perception.stereo_pair()) is None else pair[0],
             caption=model_caption(headline, self.model),
         )
 
@@ -564,15 +488,12 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
 
     def close(self) -> None:
         """Release the renderer's OpenGL context (idempotent; rendering again makes a new one)."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        self.perception.close()
         super().close()  # type: ignore[no-untyped-call]  # gymnasium 1.2.2
 
     # ------------------------------------------------------------------ pickling
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
-        state["_renderer"] = None  # an OpenGL context cannot travel; made again on first use
         state["_view"] = None
         return state
 

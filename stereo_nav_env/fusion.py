@@ -1,8 +1,8 @@
 """The env's episode memory (issue 16): how each view and each contact is fused.
 
-:func:`memory_options` derives the :class:`~modeling.memory.MemoryOptions` from the env's
+:func:`memory_options` derives the :class:`~modeling.memory.fusion.MemoryOptions` from the env's
 configuration; :func:`fuse_view` folds one single-view model and the step's contacts into the
-memory; :func:`memory_model_of` builds the fused :class:`~modeling.records.EnvironmentModel`.
+memory; :func:`memory_model_of` builds the fused :class:`~modeling.model.records.EnvironmentModel`.
 Frames: world, metres.
 """
 
@@ -11,18 +11,19 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from modeling.memory import MemoryOptions, ModelMemory, add_contact, build_memory_model, fuse
-from modeling.model import EnvironmentModel
-from modeling.segments import SegmentOptions
+from modeling.memory.fusion import ModelMemory, add_contact, build_memory_model, fuse
+from modeling.memory.options import MemoryOptions
+from modeling.model.records import EnvironmentModel
+from modeling.stereo.segments import SegmentOptions
 from stereo_nav_env.config import EnvConfig
-from stereo_nav_env.world import Contact
+from stereo_nav_env.sim.world import Contact
 
 __all__ = ["fuse_view", "memory_model_of", "memory_options"]
 
 
 def memory_options(config: EnvConfig) -> MemoryOptions:
-    """How the env fuses views (:class:`~modeling.memory.MemoryOptions`): the defaults, with the
-    level head's vertical limit, so that the memory does not count as seen what lies below the
+    """How the env fuses views (:class:`~modeling.memory.fusion.MemoryOptions`): the defaults, with
+    the level head's vertical limit, so that the memory does not count as seen what lies below the
     image's lower edge (a point of height ``h`` nearer than ``(head_height_m - h) /
     tan(half_vfov_rad)``: the floor within 1.73 m with the defaults), and judges a segment in view
     or not at its own height; and with the segment stereo's angle limit

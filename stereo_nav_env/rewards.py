@@ -11,7 +11,7 @@ The reward of a step is the sum of ``info["reward_components"]``:
 | `progress` | ``progress_weight`` x (geodesic distance to the goal before - after), metres |
 
 The geodesic distance runs through the true free space for the robot's disc
-(:class:`~stereo_nav_env.geodesic.GeodesicField`), so going around an obstacle is progress and
+(:class:`~stereo_nav_env.sim.geodesic.GeodesicField`), so going around an obstacle is progress and
 driving at a wall the goal lies behind is not.
 
 :class:`StuckTimer` is the optional truncation when stuck (``EnvConfig.stuck_steps``): the episode

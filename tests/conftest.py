@@ -10,7 +10,7 @@ from collections.abc import Iterator
 import pytest
 from hypothesis import HealthCheck, settings
 
-from modeling.rig import StereoRig
+from modeling.stereo.rig import StereoRig
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
@@ -43,9 +43,9 @@ def rig() -> StereoRig:
 
 
 @pytest.fixture(scope="session")
-def default_scene():  # -> stereo_nav_env.scenes.Scene
+def default_scene():  # -> stereo_nav_env.sim.scenes.Scene
     """The bundled ``default`` map."""
-    from stereo_nav_env.scenes import load_scenario
+    from stereo_nav_env.sim.scenes import load_scenario
 
     return load_scenario("default")
 
@@ -53,7 +53,7 @@ def default_scene():  # -> stereo_nav_env.scenes.Scene
 @pytest.fixture(scope="session")
 def default_renderer(rig, default_scene) -> Iterator:  # -> StereoRenderer
     """One session-wide renderer of the default scene (its OpenGL context is made once)."""
-    from stereo_nav_env.render import StereoRenderer
+    from stereo_nav_env.rendering.renderer import StereoRenderer
 
     renderer = StereoRenderer(rig, default_scene)
     yield renderer

@@ -28,7 +28,10 @@ FORBIDDEN = {
     "stereo_nav_env": {"torch", "stable_baselines3", "agents"},
     "agents": set(),
 }
-ONLY_IMPORTER = {"pymunk": "stereo_nav_env/world.py", "pyrender": "stereo_nav_env/render.py"}
+ONLY_IMPORTER = {
+    "pymunk": "stereo_nav_env/sim/world.py",
+    "pyrender": "stereo_nav_env/rendering/renderer.py",
+}
 PACKAGES = ("modeling", "stereo_nav_env", "agents")
 """The project's packages; scripts/ holds programs that import them."""
 
@@ -48,7 +51,7 @@ def _private_imports(path: pathlib.Path, own: str) -> list[str]:
     """The imports in ``path`` of a private module or name of a project package but ``own``.
 
     Private: a dotted component or an imported name that starts with ``_`` (``modeling._compiled``,
-    ``from modeling.model import _helper``); dunder names such as ``__version__`` are not.
+    ``from modeling.model.build import _helper``); dunder names such as ``__version__`` are not.
     """
 
     def private(name: str) -> bool:
@@ -86,14 +89,14 @@ def test_private_import_check_names_what_it_finds(tmp_path: pathlib.Path) -> Non
     path = tmp_path / "module.py"
     path.write_text(
         "import modeling._compiled.jit\n"
-        "from modeling.model import _helper, build_model\n"
+        "from modeling.model.build import _helper, build_model\n"
         "from modeling import __version__, build_model\n"
         "from stereo_nav_env._x import y\n"
         "from ._local import z\n"
     )
     assert _private_imports(path, own="stereo_nav_env") == [
         "modeling._compiled.jit",
-        "modeling.model: _helper, build_model",
+        "modeling.model.build: _helper, build_model",
     ]
 
 

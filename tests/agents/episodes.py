@@ -1,11 +1,11 @@
-"""Made-up :class:`~agents.evaluation.EpisodeResult` s for the tests of what reads them."""
+"""Made-up :class:`~agents.evaluation.suite.EpisodeResult` s for the tests of what reads them."""
 
 from __future__ import annotations
 
 import dataclasses
 from typing import Any
 
-from agents.evaluation import EpisodeResult
+from agents.evaluation.suite import EpisodeResult
 
 
 def episode(

@@ -11,7 +11,8 @@ import math
 
 import numpy as np
 
-from modeling.model import EnvironmentModel, build_model
+from modeling.model.build import build_model
+from modeling.model.records import EnvironmentModel
 from modeling.observation import FloorObservation, FloorSegment
 
 ROBOT_WIDTH_M = 0.5

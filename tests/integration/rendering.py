@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
-from modeling.pipeline import to_gray
-from modeling.rig import HeadPose, StereoRig
-from stereo_nav_env.render import StereoRenderer
-from stereo_nav_env.scenes import Scene
+from modeling.stereo.pipeline import to_gray
+from modeling.stereo.rig import HeadPose, StereoRig
+from stereo_nav_env.rendering.renderer import StereoRenderer
+from stereo_nav_env.sim.scenes import Scene
 
 
 def noisy_grey_pair(

@@ -9,12 +9,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from modeling.matching import StereoMatches, match_segments
 from modeling.observation import FloorObservation
-from modeling.pipeline import stereo_to_floor
-from modeling.rig import HeadPose, StereoRig
-from modeling.segments import ImageSegments, extract_segments
-from modeling.triangulation import triangulate_to_floor
+from modeling.stereo.matching import StereoMatches, match_segments
+from modeling.stereo.pipeline import stereo_to_floor
+from modeling.stereo.rig import HeadPose, StereoRig
+from modeling.stereo.segments import ImageSegments, extract_segments
+from modeling.stereo.triangulation import triangulate_to_floor
 
 RIG = StereoRig()
 POSE = HeadPose(x_m=0.0, y_m=0.0, heading_rad=0.0, height_m=0.8)

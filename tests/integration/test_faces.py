@@ -1,5 +1,5 @@
-"""Plain faces on rendered scenes (``modeling.faces``): a face between two vertical edges is closed,
-a real gap between two obstacles is not. Ground truth: the obstacles' footprints."""
+"""Plain faces on rendered scenes (``modeling.stereo.faces``): a face between two vertical edges is
+closed, a real gap between two obstacles is not. Ground truth: the obstacles' footprints."""
 
 from __future__ import annotations
 
@@ -12,15 +12,15 @@ import shapely
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
-from modeling.faces import FACE_SOURCE, FaceOptions, close_faces, face_pairs
-from modeling.ground_lines import GROUND_SOURCE, add_ground_lines
-from modeling.matching import match_segments
-from modeling.model import build_model
+from modeling.model.build import build_model
 from modeling.observation import FloorObservation, FloorSegment
-from modeling.rig import HeadPose, StereoRig
-from modeling.segments import ImageSegments, extract_segment_pair
-from modeling.triangulation import triangulate_to_floor
-from stereo_nav_env.scenes import Scene, make_obstacle, oriented_rect
+from modeling.stereo.faces import FACE_SOURCE, FaceOptions, close_faces, face_pairs
+from modeling.stereo.ground_lines import GROUND_SOURCE, add_ground_lines
+from modeling.stereo.matching import match_segments
+from modeling.stereo.rig import HeadPose, StereoRig
+from modeling.stereo.segments import ImageSegments, extract_segment_pair
+from modeling.stereo.triangulation import triangulate_to_floor
+from stereo_nav_env.sim.scenes import Scene, make_obstacle, oriented_rect
 from tests.integration.rendering import noisy_grey_pair
 
 RIG = StereoRig()

@@ -7,7 +7,7 @@ import os
 import subprocess
 import sys
 
-from stereo_nav_env.soak import create_close_cycles, random_steps, rollout_digest
+from agents.evaluation.soak import create_close_cycles, random_steps, rollout_digest
 
 
 def test_two_spawned_processes_give_the_same_200_step_rollout() -> None:

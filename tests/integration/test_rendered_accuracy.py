@@ -1,7 +1,7 @@
 """Issue 3 acceptance on rendered scenes: 20 seeded scenes (every family, start views and views of
 bookshelf fronts), 320x240, Gaussian pixel noise (sigma 2 grey levels), ground truth from the
 renderer's depth and the scenes' obstacle footprints. The measuring code and the definitions of the
-figures are in :mod:`stereo_nav_env.stereo_eval` (``scripts/bench_stereo.py`` prints the same
+figures are in :mod:`agents.evaluation.stereo_accuracy` (``scripts/bench_stereo.py`` prints the same
 figures). Speed is a benchmark figure only: wall-clock time under a parallel test run is not
 deterministic.
 
@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import pytest
 
-from stereo_nav_env.stereo_eval import evaluate, summarise
+from agents.evaluation.stereo_accuracy import evaluate, summarise
 
 
 @pytest.fixture(scope="module")

@@ -10,12 +10,12 @@ import shapely
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
-from modeling.matching import match_segments
-from modeling.rig import HeadPose, StereoRig
-from modeling.segments import extract_segment_pair
-from modeling.triangulation import triangulate_to_floor
+from modeling.stereo.matching import match_segments
+from modeling.stereo.rig import HeadPose, StereoRig
+from modeling.stereo.segments import extract_segment_pair
+from modeling.stereo.triangulation import triangulate_to_floor
 from stereo_nav_env.diagnostics import normalised_outline_errors
-from stereo_nav_env.scenes import Scene, make_obstacle
+from stereo_nav_env.sim.scenes import Scene, make_obstacle
 from tests.integration.rendering import noisy_grey_pair
 
 RIG = StereoRig()

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from modeling.rig import StereoRig
+from modeling.stereo.rig import StereoRig
 
 Rect = tuple[float, float, float, float, float, float]
 

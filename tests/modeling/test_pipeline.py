@@ -6,13 +6,14 @@ import numpy as np
 import pytest
 
 from modeling import model_from_stereo as exported
-from modeling.faces import FaceOptions
-from modeling.matching import MatchOptions
-from modeling.model import build_model
-from modeling.pipeline import STEREO_STAGES, model_from_stereo, route_options, stereo_to_floor
-from modeling.rig import HeadPose, StereoRig
-from modeling.segments import SegmentOptions
-from modeling.triangulation import TriangulationOptions
+from modeling.model.build import build_model
+from modeling.pipeline import model_from_stereo
+from modeling.stereo.faces import FaceOptions
+from modeling.stereo.matching import MatchOptions
+from modeling.stereo.pipeline import STEREO_STAGES, route_options, stereo_to_floor
+from modeling.stereo.rig import HeadPose, StereoRig
+from modeling.stereo.segments import SegmentOptions
+from modeling.stereo.triangulation import TriangulationOptions
 from tests.modeling.synth import render_pair
 
 RIG = StereoRig()

@@ -10,11 +10,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import modeling.situations as situations_module
-from modeling.gaps import gap_passable_probability
-from modeling.model import build_model
+import modeling.model.situations as situations_module
+from modeling.model.build import build_model
+from modeling.model.gaps import gap_passable_probability
+from modeling.model.records import Situation
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
-from modeling.records import Situation
 
 W = 0.5
 
@@ -119,7 +119,7 @@ def test_union_find_components_match_scipy(seed: int, n: int, density: float) ->
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    from modeling.obstacles import components as _components
+    from modeling.model.obstacles import components as _components
 
     rng = np.random.default_rng(seed)
     m = int(density * n)
@@ -141,7 +141,7 @@ def test_union_find_components_match_scipy(seed: int, n: int, density: float) ->
 def test_k_best_situations_are_the_exact_top_k(weights: list[list[float]], k: int) -> None:
     import itertools
 
-    from modeling.situations import k_best as _k_best
+    from modeling.model.situations import k_best as _k_best
 
     probs = [np.sort(np.array(w) / sum(w))[::-1] for w in weights]
     got = _k_best(probs, k)
@@ -263,7 +263,7 @@ def test_rigid_motion_changes_no_relation_and_no_probability(
 def test_pairs_left_out_are_surely_passable(obs: FloorObservation) -> None:
     # Every pair of items, by brute force: the relation table lists all pairs that are not
     # surely passable, with the same probability, and leaves out only pairs above 1 - eps / 1000.
-    from modeling.relations import closest_points
+    from modeling.model.relations import closest_points
 
     m = build_model(obs, W)
     ends = np.array(
@@ -301,7 +301,7 @@ def test_pairs_left_out_are_surely_passable(obs: FloorObservation) -> None:
 
 
 def test_examined_pairs_grow_linearly_with_the_segments() -> None:
-    from modeling.relations import segment_relations
+    from modeling.model.relations import segment_relations
 
     def grid(side: int) -> tuple[np.ndarray, np.ndarray]:
         # Short walls on a 1.2 m grid, stereo-like covariances (depth sd 5 cm).

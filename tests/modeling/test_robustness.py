@@ -14,7 +14,8 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from modeling.model import EnvironmentModel, build_model
+from modeling.model.build import build_model
+from modeling.model.records import EnvironmentModel
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
 
 ROBOT_WIDTH_M = 0.5

@@ -7,8 +7,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from modeling.gaps import gap_passable_probability, gap_passable_probability_batch
-from modeling.model import build_model
+from modeling.model.build import build_model
+from modeling.model.gaps import gap_passable_probability, gap_passable_probability_batch
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
 
 C = np.eye(2) * 1e-4
@@ -182,7 +182,7 @@ def test_with_overrides_replaces_named_fields_only() -> None:
 def test_with_overrides_keeps_results_without_hiding_what_was_passed() -> None:
     """Equal arguments give the kept options again; a value of another type is a new key (its
     check still sees it); a bad value fails on every call; unhashable values are made afresh."""
-    from modeling.model import ModelOptions
+    from modeling.model.build import ModelOptions
     from modeling.validation import with_overrides
 
     first = with_overrides(None, ModelOptions, {"eps": 0.1, "max_situations": 8})

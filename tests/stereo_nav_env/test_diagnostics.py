@@ -7,8 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from modeling.memory import ModelMemory, fuse
-from modeling.model import EnvironmentModel, build_model
+from modeling.memory.fusion import ModelMemory, fuse
+from modeling.model.build import build_model
+from modeling.model.records import EnvironmentModel
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
 from stereo_nav_env.diagnostics import (
     DIAGNOSTIC_NAMES,
@@ -19,7 +20,7 @@ from stereo_nav_env.diagnostics import (
     normalised_outline_errors,
     normalised_outline_errors_reference,
 )
-from stereo_nav_env.scenes import Obstacle, Scene, make_obstacle, oriented_rect
+from stereo_nav_env.sim.scenes import Obstacle, Scene, make_obstacle, oriented_rect
 
 SIGMA = 0.03
 COV = np.tile(np.diag([SIGMA**2, SIGMA**2]), (2, 1, 1))

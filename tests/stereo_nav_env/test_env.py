@@ -18,11 +18,11 @@ from gymnasium.utils.env_checker import check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import stereo_nav_env  # noqa: F401  (registers the ids)
-from modeling.model import EnvironmentModel
+from modeling.model.records import EnvironmentModel
 from stereo_nav_env.actions import DISCRETE_ACTIONS
 from stereo_nav_env.config import REGION_FEATURES
 from stereo_nav_env.env import StereoNavEnv
-from stereo_nav_env.render import StereoRenderer
+from stereo_nav_env.rendering.renderer import StereoRenderer
 from stereo_nav_env.rewards import REWARD_COMPONENTS
 
 SMALL: dict[str, Any] = {
@@ -204,9 +204,9 @@ def test_50_create_step_close_cycles_leave_no_renderer_or_file_behind() -> None:
         env = gym.make("StereoNav-v0", diagnostics=False, **TINY)
         env.reset(seed=0)
         env.step(env.action_space.sample())
-        assert _u(env)._renderer is not None
+        assert _u(env).perception._renderer is not None
         env.close()
-        assert _u(env)._renderer is None
+        assert _u(env).perception._renderer is None
 
     cycle()  # the first one loads the GL libraries
     # pyrender's close runs gc.collect(); freezing what exists now keeps that cheap, and the
@@ -459,7 +459,7 @@ def test_ground_lines_add_floor_segments_on_the_true_outlines_of_a_room() -> Non
     them within 0.15 m) and the model without them has none."""
     import shapely
 
-    from modeling.ground_lines import GROUND_SOURCE
+    from modeling.stereo.ground_lines import GROUND_SOURCE
 
     found = {}
     for on in (False, True):

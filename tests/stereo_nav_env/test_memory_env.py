@@ -18,13 +18,13 @@ from gymnasium.utils.env_checker import check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import stereo_nav_env  # noqa: F401  (registers the ids)
-from modeling.memory import ModelMemory
-from modeling.model import EnvironmentModel
-from modeling.rig import StereoRig
+from modeling.memory.fusion import ModelMemory
+from modeling.model.records import EnvironmentModel
+from modeling.stereo.rig import StereoRig
 from stereo_nav_env.config import ObservationConfig
 from stereo_nav_env.env import STAGES, StereoNavEnv
-from stereo_nav_env.observation import observation_space
-from stereo_nav_env.raster import UNKNOWN_VALUE, unknown_channel
+from stereo_nav_env.observation.packing import observation_space
+from stereo_nav_env.observation.raster import UNKNOWN_VALUE, unknown_channel
 
 SMALL: dict[str, Any] = {"width_px": 160, "height_px": 120, "focal_px": 130.0}
 CFG = ObservationConfig()

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from modeling.rig import HeadPose, StereoRig
+from modeling.stereo.rig import HeadPose, StereoRig
 
 
 def test_defaults_use_pixel_centre_principal_point() -> None:

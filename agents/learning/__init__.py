@@ -1,0 +1,8 @@
+"""Learning: training policies with stable-baselines3 or RLlib, and the agents that run them.
+
+Owns the SB3 training loop with its curriculum (:mod:`.training`), the agent of a saved SB3
+model (:mod:`.ppo`), results over training seeds (:mod:`.seeds`) and the RLlib backend, agent
+and connectors (:mod:`.rllib`). torch is imported here and nowhere else.
+
+May import: :mod:`stereo_nav_env`, :mod:`agents.base`, :mod:`agents.evaluation`.
+"""

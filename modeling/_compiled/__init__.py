@@ -1,8 +1,0 @@
-"""Compiled loops of :mod:`modeling` (private: an implementation detail).
-
-Each module here holds the Numba loops of one public module (``gap`` for :mod:`modeling.gaps`
-and :mod:`modeling.relations`, ``match`` for :mod:`modeling.matching`, ...). Every loop takes and
-returns small named structures, and has a readable reference (plain NumPy or Python, the paper's
-formulation) beside its public function; a test compares the two on seeded random inputs.
-Setting ``NUMBA_DISABLE_JIT=1`` runs every loop as plain Python.
-"""

@@ -1,0 +1,161 @@
+"""Obstacles, free spaces and possible situations from a floor observation (paper section 4).
+
+:func:`build_model` turns a :class:`~modeling.observation.FloorObservation` into an
+:class:`~modeling.model.records.EnvironmentModel`: a list of possible situations with their
+probabilities, each made of obstacles and critical regions, plus the occluded area. Its steps
+(ARCHITECTURE.md, stages 5-10), each in a module of its own:
+
+1. Items and their relations, isolated short segments (section 4.1): :mod:`modeling.model.items`.
+2. Ambiguous segments moving together (Fig. 7), the elimination of those with one effect
+   (Fig. 8) and the independent groups (Fig. 9): :mod:`modeling.model.ambiguity`.
+3. The k most probable situations (Eq. 2), each partitioned into obstacles (components of
+   impassable relations, convex-hull polygons: :mod:`modeling.model.obstacles`), critical regions
+   and passages: :mod:`modeling.model.situations`.
+4. The occluded area behind the obstacles of the most probable situation (their skeletons):
+   :mod:`modeling.model.occlusion`.
+
+The records are in :mod:`modeling.model.records` (re-exported here). Frames: world, metres;
+covariances m^2; probabilities in [0, 1].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from modeling.model.ambiguity import (
+    candidate_adjacency,
+    eliminate_units_of_one_effect,
+    independent_groups,
+    units_moving_together,
+)
+from modeling.model.gaps import _check_eps
+from modeling.model.items import isolated_short_segments, item_relations, items_of
+from modeling.model.occlusion import occluded_polygons, occluders_of
+from modeling.model.records import CriticalRegion, EnvironmentModel, Obstacle, Passage, Situation
+from modeling.model.situations import enumerate_situations
+from modeling.observation import FloorObservation
+from modeling.validation import integer, positive, with_overrides
+
+__all__ = [
+    "CriticalRegion",
+    "EnvironmentModel",
+    "ModelOptions",
+    "Obstacle",
+    "Passage",
+    "Situation",
+    "build_model",
+]
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ModelOptions:
+    """The options of :func:`build_model`.
+
+    Attributes:
+        eps: Classification tolerance in (0, 0.5): passable if ``p > 1 - eps``, impassable if
+            ``p < eps``, undecided otherwise.
+        max_situations: At most this many situations are returned, most probable first (>= 1).
+        min_isolated_3d_length_m: Isolated segments whose 3D length (the floor length and the
+            height extent: ``hypot(length_m, |height_m[1] - height_m[0]|)``) is below this are
+            dropped as likely false matches (metres, >= 0). A vertical edge, zero long on the
+            floor, counts its height.
+        outline_buffer_m: Half-width of the rectangle that stands for the polygon of an obstacle
+            whose points are collinear (one segment, or a straight wall), metres (> 0).
+    """
+
+    eps: float = 0.05
+    max_situations: int = 64
+    min_isolated_3d_length_m: float = 0.1
+    outline_buffer_m: float = 0.02
+
+    def __post_init__(self) -> None:  # checked once here, stored as plain Python numbers
+        object.__setattr__(self, "eps", _check_eps(self.eps))
+        object.__setattr__(
+            self, "max_situations", integer(self.max_situations, "max_situations", low=1)
+        )
+        length = positive(
+            self.min_isolated_3d_length_m, "min_isolated_3d_length_m", allow_zero=True
+        )
+        object.__setattr__(self, "min_isolated_3d_length_m", length)
+        object.__setattr__(
+            self, "outline_buffer_m", positive(self.outline_buffer_m, "outline_buffer_m")
+        )
+
+
+def build_model(
+    observation: FloorObservation,
+    robot_width_m: float,
+    options: ModelOptions | None = None,
+    **overrides: Any,
+) -> EnvironmentModel:
+    """Model obstacles, free spaces and possible situations from a floor observation.
+
+    Args:
+        observation: The floor segments (unambiguous and ambiguous), world frame.
+        robot_width_m: Robot width (diameter), metres, > 0.
+        options: The :class:`ModelOptions` (default: their defaults).
+        **overrides: Fields of :class:`ModelOptions` to replace (``eps=0.1``,
+            ``max_situations=8``, ...).
+
+    Returns:
+        The :class:`~modeling.model.records.EnvironmentModel` (see the module docstring for the
+        steps).
+
+    Raises:
+        ValueError: Bad arguments, naming them.
+    """
+    if not isinstance(observation, FloorObservation):
+        raise ValueError(
+            f"observation must be a FloorObservation, got {type(observation).__name__}"
+        )
+    width = positive(robot_width_m, "robot_width_m")
+    opts = with_overrides(options, ModelOptions, overrides)  # validated by ModelOptions
+    eps, min_len, buffer_m = opts.eps, opts.min_isolated_3d_length_m, opts.outline_buffer_m
+
+    # Section 4.1: items, their relations, isolated short segments.
+    items = items_of(observation)
+    rel = item_relations(items, width, eps)
+    isolation = isolated_short_segments(items, rel, min_len)
+    # Section 4.2: units moving together (Fig. 7), elimination (Fig. 8), groups (Fig. 9).
+    units = units_moving_together(
+        observation, isolation.live_ambiguous, items.of_ambiguous, items.ends, width
+    )
+    adjacency = candidate_adjacency(rel, items.ambiguous)
+    base_active = np.zeros(items.ends.shape[0], dtype=bool)
+    base_active[list(isolation.kept_segments)] = True
+    elimination = eliminate_units_of_one_effect(units, rel, adjacency, base_active)
+    groups = independent_groups(units, elimination, adjacency, items.ambiguous)
+    # Eq. 2: the k most probable situations, with their obstacles, regions and passages.
+    situations, residual = enumerate_situations(
+        items,
+        rel,
+        units,
+        elimination,
+        max_situations=opts.max_situations,
+        robot_width_m=width,
+        outline_buffer_m=buffer_m,
+    )
+    # Occlusion: behind the obstacles of the most probable situation.
+    occluded = occluded_polygons(observation, occluders_of(situations[0]))
+    return EnvironmentModel(
+        situations=tuple(situations),
+        residual_probability=residual,
+        occluded=occluded,
+        observation=observation,
+        robot_width_m=width,
+        eps=eps,
+        relations=rel,
+        item_segment=items.segment,
+        item_candidate=items.candidate,
+        kept_segments=isolation.kept_segments,
+        eliminated_segments=isolation.eliminated_segments,
+        eliminated_ambiguous=tuple(
+            sorted(isolation.eliminated_ambiguous + list(elimination.eliminated))
+        ),
+        merged_ambiguous=dict(sorted(elimination.merged.items())),
+        units=tuple(units[u].members for u in elimination.remaining),
+        groups=groups,
+    )

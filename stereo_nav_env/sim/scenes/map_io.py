@@ -1,0 +1,357 @@
+"""Map I/O: the JSON map format, bundled maps, and scenes by name.
+
+JSON map format.
+
+A :class:`Scene` is what the simulator knows for certain: the room's bounds, the obstacles (each
+with its true 2D collision outline and the 3D boxes that draw it), the robot's start pose and the
+goal. Frames and units follow ARCHITECTURE.md: world metres, floor plane x-y, z up, headings in
+radians counter-clockwise from +x.
+
+Obstacles
+---------
+Every obstacle has a ``kind`` (:class:`ObstacleKind`), a ``footprint`` (k, 2) polygon in world
+metres that is the robot's true collision outline, a height and a tuple of :class:`BoxPart` prisms
+used only for rendering. A table's footprint is the outline of its top: the robot (1.0 m tall)
+cannot pass under a 0.75 m table, although the camera sees the floor between its legs. Parts are
+built from the kind (:func:`make_obstacle`): tables and chairs stand on legs, bookshelves carry
+shelf boards and vertical dividers whose repeated front edges make stereo matching ambiguous, walls
+and boxes are plain prisms. Walls with doorways are several wall obstacles; the doorway is the gap
+between them.
+
+Gaps
+----
+:meth:`Scene.gaps` lists the true gaps between pairs of obstacles (closest points, width), the
+ground truth for passability; :meth:`Scene.doubtful_gaps` keeps those within a relative tolerance
+of the robot's width. Generated scenes always have at least two doubtful gaps (width within 30 % of
+the robot width) and a route from start to goal that the robot fits through.
+
+JSON map format (``stereo-nav-map/1``)
+--------------------------------------
+A map file is one JSON object::
+
+    {
+      "format": "stereo-nav-map/1",          # optional; if present it must be this string
+      "name": "default",                      # optional, default: the file's stem
+      "bounds": [xmin, ymin, xmax, ymax],     # metres, the floor area (xmin < xmax, ymin < ymax)
+      "start": [x, y, heading_rad],           # robot start pose, inside the bounds
+      "goal": [x, y],                         # goal position, inside the bounds
+      "obstacles": [                          # list, may be empty
+        {
+          "kind": "wall" | "table" | "chair" | "bookshelf" | "box",
+          "footprint": [[x, y], ...],         # >= 3 points, a simple polygon, metres, world frame
+          "rect": {"center": [x, y], "size": [length, depth], "yaw_deg": 0.0},
+                                              # alternative to "footprint": an oriented rectangle
+                                              # whose length runs along yaw; exactly one of the two
+          "height": 0.75,                     # metres, > 0 (default per kind, see DEFAULT_HEIGHT_M)
+          "color": [r, g, b],                 # optional, each in [0, 1] (default per kind)
+          "parts": [                          # optional; default: built from kind/footprint/height
+            {"footprint": [[x, y], ...], "z": [z_min, z_max], "color": [r, g, b]}
+          ]
+        }
+      ]
+    }
+
+Tables, chairs and bookshelves need a rectangular footprint to get their legs, seat or shelves
+(their front, i.e. a bookshelf's open side or a chair's seat edge, is the side from the first to
+the second footprint corner); other footprints are drawn as one prism. A bookshelf's footprint runs
+counter-clockwise with the front first. :func:`load_map` raises ``ValueError`` naming the bad field,
+e.g. ``obstacles[2].footprint must have shape (k, 2) with k >= 3``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import pathlib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from shapely.geometry import Point
+
+from modeling.validation import positive
+from stereo_nav_env.sim.scenes.generator import FAMILIES, STANDARD_FAMILIES, generate_scene
+from stereo_nav_env.sim.scenes.parts import build_parts, make_obstacle, oriented_rect
+from stereo_nav_env.sim.scenes.types import (
+    DEFAULT_COLOR,
+    DEFAULT_HEIGHT_M,
+    BoxPart,
+    Obstacle,
+    ObstacleKind,
+    Scene,
+    _color,
+    _err,
+    _number,
+    _polygon_array,
+    _vector,
+)
+
+__all__ = [
+    "MAPS_DIR",
+    "MAP_FORMAT",
+    "MAP_LIMITS",
+    "MapLimits",
+    "available_maps",
+    "check_navigable",
+    "load_map",
+    "load_scenario",
+    "save_map",
+    "scene_from_json",
+    "scene_to_json",
+]
+
+MAPS_DIR = pathlib.Path(__file__).resolve().parent.parent / "maps"
+"""The bundled maps, ``stereo_nav_env/sim/maps/*.json``."""
+MAP_FORMAT = "stereo-nav-map/1"
+
+
+def _obstacle_to_json(ob: Obstacle) -> dict[str, Any]:
+    out: dict[str, Any] = {
+        "kind": ob.kind.value,
+        "footprint": np.round(ob.footprint, 6).tolist(),
+        "height": round(ob.height_m, 6),
+        "color": [round(c, 6) for c in ob.color],
+    }
+    default = build_parts(ob.kind, ob.footprint, ob.height_m, ob.color)
+    same = len(default) == len(ob.parts) and all(
+        a.footprint.shape == b.footprint.shape
+        and np.allclose(a.footprint, b.footprint, atol=1e-6)
+        and abs(a.z_min_m - b.z_min_m) < 1e-6
+        and abs(a.z_max_m - b.z_max_m) < 1e-6
+        and np.allclose(a.color, b.color, atol=1e-6)
+        for a, b in zip(default, ob.parts, strict=True)
+    )
+    if not same:
+        out["parts"] = [
+            {
+                "footprint": np.round(p.footprint, 6).tolist(),
+                "z": [p.z_min_m, p.z_max_m],
+                "color": list(p.color),
+            }
+            for p in ob.parts
+        ]
+    return out
+
+
+def scene_to_json(scene: Scene) -> dict[str, Any]:
+    """The JSON-ready dict of a scene (map format ``stereo-nav-map/1``, see the module doc)."""
+    return {
+        "format": MAP_FORMAT,
+        "name": scene.name,
+        "bounds": list(scene.bounds),
+        "start": list(scene.start),
+        "goal": list(scene.goal),
+        "obstacles": [_obstacle_to_json(ob) for ob in scene.obstacles],
+    }
+
+
+def save_map(scene: Scene, path: str | pathlib.Path) -> pathlib.Path:
+    """Write a scene as a JSON map file; returns the path."""
+    path = pathlib.Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(scene_to_json(scene), indent=1) + "\n")
+    return path
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class MapLimits:
+    """What a map file may hold, so that no file makes loading or a reset take minutes.
+
+    Attributes:
+        max_bytes: Size of the file, bytes.
+        max_obstacles: Obstacles.
+        max_vertices: Vertices of one footprint or part.
+        max_parts: Rendering parts of one obstacle.
+        max_area_m2: Area of the bounds, square metres (the geodesic grid of the rewards covers
+            it with 5 cm cells).
+    """
+
+    max_bytes: int = 4 * 2**20
+    max_obstacles: int = 1_000
+    max_vertices: int = 256
+    max_parts: int = 64
+    max_area_m2: float = 2_500.0
+
+
+MAP_LIMITS = MapLimits()
+"""The limits :func:`load_map` and :func:`scene_from_json` enforce."""
+
+
+def _limited(items: Any, field: str, limit: int, what: str) -> None:
+    if isinstance(items, list) and len(items) > limit:
+        raise _err(field, f"has {len(items)} {what}, more than the limit of {limit}")
+
+
+def _obstacle_from_json(data: Any, field: str) -> Obstacle:
+    if not isinstance(data, Mapping):
+        raise _err(field, f"must be an object, got {type(data).__name__}")
+    unknown = sorted(set(data) - {"kind", "footprint", "rect", "height", "color", "parts"})
+    if unknown:
+        raise _err(field, f"has unknown keys {unknown}")
+    if "kind" not in data:
+        raise _err(f"{field}.kind", "is missing")
+    try:
+        kind = ObstacleKind(data["kind"])
+    except ValueError as exc:
+        choices = [k.value for k in ObstacleKind]
+        raise _err(f"{field}.kind", f"must be one of {choices}, got {data['kind']!r}") from exc
+    if ("footprint" in data) == ("rect" in data):
+        raise _err(field, "must have exactly one of 'footprint' or 'rect'")
+    if "footprint" in data:
+        _limited(data["footprint"], f"{field}.footprint", MAP_LIMITS.max_vertices, "vertices")
+        fp = _polygon_array(data["footprint"], f"{field}.footprint")
+    else:
+        rect = data["rect"]
+        if not isinstance(rect, Mapping):
+            raise _err(f"{field}.rect", "must be an object with center, size, yaw_deg")
+        c = _vector(rect.get("center"), f"{field}.rect.center", 2)
+        size = _vector(rect.get("size"), f"{field}.rect.size", 2)
+        if size[0] <= 0 or size[1] <= 0:
+            raise _err(f"{field}.rect.size", f"must be positive, got {list(size)}")
+        yaw = math.radians(_number(rect.get("yaw_deg", 0.0), f"{field}.rect.yaw_deg"))
+        fp = oriented_rect(c, size[0], size[1], yaw)
+    height = _number(data.get("height", DEFAULT_HEIGHT_M[kind]), f"{field}.height")
+    if height <= 0:
+        raise _err(f"{field}.height", f"must be positive, got {height}")
+    color = _color(data["color"], f"{field}.color") if "color" in data else DEFAULT_COLOR[kind]
+    if "parts" not in data:
+        return make_obstacle(kind, fp, height, color)
+    raw_parts = data["parts"]
+    if not isinstance(raw_parts, list) or not raw_parts:
+        raise _err(f"{field}.parts", "must be a non-empty list")
+    _limited(raw_parts, f"{field}.parts", MAP_LIMITS.max_parts, "parts")
+    parts = []
+    for k, p in enumerate(raw_parts):
+        pf = f"{field}.parts[{k}]"
+        if not isinstance(p, Mapping):
+            raise _err(pf, "must be an object")
+        _limited(p.get("footprint"), f"{pf}.footprint", MAP_LIMITS.max_vertices, "vertices")
+        pfp = _polygon_array(p.get("footprint"), f"{pf}.footprint")
+        z = _vector(p.get("z"), f"{pf}.z", 2)
+        if not 0 <= z[0] < z[1]:
+            raise _err(f"{pf}.z", f"must satisfy 0 <= z_min < z_max, got {list(z)}")
+        pc = _color(p["color"], f"{pf}.color") if "color" in p else color
+        parts.append(BoxPart(footprint=pfp, z_min_m=z[0], z_max_m=z[1], color=pc))
+    return Obstacle(kind=kind, footprint=fp, height_m=height, color=color, parts=tuple(parts))
+
+
+def scene_from_json(data: Any, *, default_name: str = "map") -> Scene:
+    """A scene from a parsed JSON map (see the module doc); ``ValueError`` names a bad field."""
+    if not isinstance(data, Mapping):
+        raise ValueError(f"map must be a JSON object, got {type(data).__name__}")
+    unknown = sorted(set(data) - {"format", "name", "bounds", "start", "goal", "obstacles"})
+    if unknown:
+        raise ValueError(f"map has unknown keys {unknown}")
+    if "format" in data and data["format"] != MAP_FORMAT:
+        raise _err("format", f"must be {MAP_FORMAT!r}, got {data['format']!r}")
+    for key in ("bounds", "start", "goal", "obstacles"):
+        if key not in data:
+            raise _err(key, "is missing")
+    name = data.get("name", default_name)
+    if not isinstance(name, str):
+        raise _err("name", f"must be a string, got {name!r}")
+    bounds = _vector(data["bounds"], "bounds", 4)
+    if not (bounds[0] < bounds[2] and bounds[1] < bounds[3]):
+        raise _err("bounds", f"must satisfy xmin < xmax and ymin < ymax, got {list(bounds)}")
+    area = (bounds[2] - bounds[0]) * (bounds[3] - bounds[1])
+    if area > MAP_LIMITS.max_area_m2:
+        raise _err(
+            "bounds", f"cover {area:.6g} m^2, more than the limit of {MAP_LIMITS.max_area_m2} m^2"
+        )
+    start = _vector(data["start"], "start", 3)
+    goal = _vector(data["goal"], "goal", 2)
+    if not isinstance(data["obstacles"], list):
+        raise _err("obstacles", "must be a list")
+    _limited(data["obstacles"], "obstacles", MAP_LIMITS.max_obstacles, "entries")
+    obstacles = tuple(
+        _obstacle_from_json(ob, f"obstacles[{i}]") for i, ob in enumerate(data["obstacles"])
+    )
+    return Scene(name=name, bounds=bounds, obstacles=obstacles, start=start, goal=goal)  # type: ignore[arg-type]
+
+
+def load_map(path: str | pathlib.Path) -> Scene:
+    """Load a JSON map file (see the module docstring for the format).
+
+    Raises:
+        ValueError: The file is not valid JSON or a field is malformed (the message names it).
+    """
+    path = pathlib.Path(path)
+    size = path.stat().st_size
+    if size > MAP_LIMITS.max_bytes:
+        raise ValueError(
+            f"map {path} has {size} bytes, more than the limit of {MAP_LIMITS.max_bytes}"
+        )
+    try:
+        data = json.loads(path.read_bytes().decode("utf-8"), parse_constant=_no_constant)
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"map {path} is not UTF-8 text: {exc}") from exc
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"map {path} is not valid JSON: {exc}") from exc
+    except RecursionError as exc:
+        raise ValueError(f"map {path} nests too deeply") from exc
+    return scene_from_json(data, default_name=path.stem)
+
+
+def _no_constant(name: str) -> Any:
+    raise ValueError(f"map values must be finite numbers, got {name}")
+
+
+def check_navigable(scene: Scene, robot_width_m: float) -> Scene:
+    """``scene`` if a robot of ``robot_width_m`` can drive it: start and goal clear of every
+    footprint by the robot's radius and inside the bounds, and the goal reachable for the
+    robot's disc.
+
+    Raises:
+        ValueError: Naming ``start`` or ``goal`` (with the nearest obstacle), or the route.
+    """
+    radius = positive(robot_width_m, "robot_width_m") / 2.0
+    for field, xy in (("start", scene.start[:2]), ("goal", scene.goal)):
+        if scene.is_free(xy, robot_width_m, margin_m=0.0):
+            continue
+        point = Point(*xy)
+        dist = [ob.polygon.distance(point) for ob in scene.obstacles]
+        near = int(np.argmin(dist)) if dist else -1
+        where = f"; obstacles[{near}] is {dist[near]:.3g} m away" if near >= 0 else ""
+        raise _err(
+            field,
+            f"{[round(v, 6) for v in xy]} must be inside the bounds and clear of every obstacle "
+            f"by the robot's radius {radius:g} m{where}",
+        )
+    if not scene.route_exists(robot_width_m, margin_m=0.0):
+        raise _err("goal", f"cannot be reached from start by a robot {robot_width_m:g} m wide")
+    return scene
+
+
+def available_maps() -> tuple[str, ...]:
+    """Names of the maps bundled in ``stereo_nav_env/sim/maps``."""
+    return tuple(sorted(p.stem for p in MAPS_DIR.glob("*.json")))
+
+
+def load_scenario(scenario: str, seed: int = 0, *, robot_width_m: float = 0.5) -> Scene:
+    """A scene by name: a bundled map, a ``.json`` path, a family name, or ``"random"``.
+
+    Args:
+        scenario: ``"default"`` or another bundled map name, a path ending in ``.json``, one of
+            :data:`FAMILIES` (generated from ``seed``) or ``"random"`` (the family is drawn from
+            ``seed`` as well, among :data:`STANDARD_FAMILIES`).
+        seed: Seed of generated scenes.
+        robot_width_m: Robot width the generator guarantees a route for.
+    """
+    if not isinstance(scenario, str) or not scenario:
+        raise ValueError(f"scenario must be a non-empty string, got {scenario!r}")
+    if scenario.endswith(".json"):
+        return check_navigable(load_map(scenario), robot_width_m)
+    if scenario in available_maps():
+        return check_navigable(load_map(MAPS_DIR / f"{scenario}.json"), robot_width_m)
+    if scenario == "random":
+        family = STANDARD_FAMILIES[
+            int(np.random.default_rng(seed).integers(len(STANDARD_FAMILIES)))
+        ]
+        return generate_scene(seed, family=family, robot_width_m=robot_width_m)
+    if scenario in FAMILIES:
+        return generate_scene(seed, family=scenario, robot_width_m=robot_width_m)
+    raise ValueError(
+        f"scenario must be a map name {list(available_maps())}, a .json path, a family "
+        f"{list(FAMILIES)} or 'random', got {scenario!r}"
+    )

@@ -1,0 +1,120 @@
+"""The agents' memory (occupancy, bumps, gates) and cost grid, on synthetic models."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from agents.planning.costmap import CostGrid, cost_to_go, path_from
+from agents.planning.gridmap import GateMemory, GridSpec, OccupancyMemory
+from tests.agents.synthetic import model_of, wall_segments
+
+
+def _at(spec: GridSpec, grid: np.ndarray, x: float, y: float) -> bool:
+    row, col = spec.cell_of(np.array([[x, y]]))[0]
+    return bool(grid[row, col])
+
+
+def test_grid_spec_cells_round_trip() -> None:
+    spec = GridSpec.from_bounds((0.0, 0.0, 2.0, 1.0), 0.1)
+    assert spec.shape == (10, 20) and spec.size == 200
+    idx = spec.index_of(np.array([[0.05, 0.05], [1.234, 0.56]]))
+    assert idx.tolist() == [0, 5 * 20 + 12]
+    assert spec.xy_of(idx) == pytest.approx(np.array([[0.05, 0.05], [1.25, 0.55]]))
+    with pytest.raises(ValueError, match="bounds must satisfy"):
+        GridSpec.from_bounds((1.0, 0.0, 1.0, 1.0))
+
+
+def test_occupancy_fuses_hits_and_clears_what_it_sees_free() -> None:
+    spec = GridSpec.from_bounds((0.0, 0.0, 6.0, 4.0), 0.1)
+    memory = OccupancyMemory(spec)
+    wall = model_of(wall_segments(2.5, [(1.5, 2.5)], 0.02), (0.5, 2.0, 0.0))
+    memory.update(wall)
+    assert _at(spec, memory.occupied(), 2.5, 2.0)
+    assert not _at(spec, memory.occupied(), 1.5, 2.0)
+    empty = model_of([], (0.5, 2.0, 0.0))
+    for _ in range(2):
+        memory.update(empty)
+        assert _at(spec, memory.occupied(), 2.5, 2.0)  # 1.0 - 0.35 - 0.35 > 0: still there
+    memory.update(empty)
+    assert not _at(spec, memory.occupied(), 2.5, 2.0)  # seen free three times
+
+
+def test_the_fused_models_nearby_obstacles_enter_the_map_only_when_asked() -> None:
+    """The memory model's obstacles within ``fused_range_m`` of the head count as seen in a view
+    that shows nothing (an empty model); farther ones, and any with the option at 0, do not."""
+    spec = GridSpec.from_bounds((0.0, 0.0, 6.0, 4.0), 0.1)
+    empty = model_of([], (0.5, 2.0, 0.0))
+    fused = model_of(wall_segments(2.0, [(1.5, 2.5)], 0.02), (0.0, 2.0, 0.0))
+    far = model_of(wall_segments(4.0, [(1.5, 2.5)], 0.02), (0.0, 2.0, 0.0))
+    on = OccupancyMemory(spec, fused_range_m=1.8)
+    on.update(empty, fused=fused)
+    assert _at(spec, on.occupied(), 2.0, 2.0)  # 1.5 m from the viewpoint at x = 0.5
+    on.update(empty, fused=far)  # 3.5 m away: left out
+    assert not _at(spec, on.occupied(), 4.0, 2.0)
+    for memory in (OccupancyMemory(spec), OccupancyMemory(spec, fused_range_m=1.8)):
+        memory.update(empty, fused=fused if memory.fused_range_m == 0.0 else None)
+        assert not memory.occupied()[1:-1, 1:-1].any()
+
+
+def test_a_wrong_memory_model_is_refused_by_name() -> None:
+    from agents.base import memory_model_of
+
+    assert memory_model_of({}) is None and memory_model_of({"memory_model": None}) is None
+    with pytest.raises(ValueError, match=r"info\['memory_model'\] must be an EnvironmentModel"):
+        memory_model_of({"memory_model": "a map"})
+
+
+def test_bumps_are_forgotten_but_the_border_is_not() -> None:
+    spec = GridSpec.from_bounds((0.0, 0.0, 4.0, 4.0), 0.1)
+    memory = OccupancyMemory(spec)
+    assert memory.occupied()[0, :].all() and memory.occupied()[:, -1].all()
+    memory.add_bump(np.array([2.0, 2.0]), 0.0, 1.0, step=10)  # a segment across +x
+    memory.add_bump(np.array([1.0, 1.0]), 0.0, 0.4, step=50)
+    assert _at(spec, memory.occupied(), 2.05, 2.45) and _at(spec, memory.occupied(), 2.05, 1.55)
+    memory.forget(before_step=30)
+    occ = memory.occupied()
+    assert not _at(spec, occ, 2.05, 2.0) and _at(spec, occ, 1.05, 1.0) and occ[0, :].all()
+
+
+def test_gate_memory_matches_and_keeps_the_sharper_estimate() -> None:
+    segs_far = wall_segments(4.0, [(0.5, 1.74), (2.26, 3.5)], 0.1)
+    segs_near = wall_segments(4.0, [(0.5, 1.74), (2.26, 3.5)], 0.03)
+    gates = GateMemory()
+    gates.update(model_of(segs_far, (0.0, 2.0, 0.0)), step=0)
+    (gate,) = gates.gates
+    assert gate.midpoint == pytest.approx([4.0, 2.0]) and gate.seen_distance_m == pytest.approx(4)
+    far_std = gate.width_std_m
+    gates.update(model_of(segs_near, (2.5, 2.0, 0.0)), step=1)
+    assert len(gates.gates) == 1 and gate.width_std_m < far_std / 2
+    assert gate.seen_distance_m == pytest.approx(1.5) and gate.last_step == 1
+    gates.update(model_of(segs_far, (0.0, 2.0, 0.0)), step=2)  # a worse view: estimate kept
+    assert gate.width_std_m < far_std / 2 and gate.last_step == 2
+    assert gates.mark_failed(np.array([3.8, 2.0]), 0.5) == [0]
+    assert gate.failed and gate.p_passable == 0.0
+
+
+def test_cost_grid_crosses_a_gap_only_by_its_gate_edge() -> None:
+    spec = GridSpec.from_bounds((0.0, 0.0, 6.0, 4.0), 0.1)
+    model = model_of(wall_segments(3.0, [(0.0, 1.74), (2.26, 4.0)], 0.08), (1.0, 2.0, 0.0))
+    memory = OccupancyMemory(spec)
+    memory.update(model)
+    gates = GateMemory()
+    gates.update(model, step=0)
+    (gate,) = gates.gates
+    assert 0.05 < gate.p_passable < 0.95
+    grid = CostGrid(spec, memory.occupied(), gates.gates, hard_m=0.2, soft_m=0.4)
+    (edge,) = grid.gate_edges
+    assert edge.mid_xy == pytest.approx([3.0, 2.0], abs=0.02)
+    start = int(spec.index_of(np.array([[1.0, 2.0]]))[0])
+    goal = int(spec.index_of(np.array([[5.0, 2.0]]))[0])
+    closed, _ = cost_to_go(grid.matrix({}), goal)
+    assert math.isinf(closed[start])
+    value, pred = cost_to_go(grid.matrix({(edge.a, edge.b): 1.0, (edge.b, edge.a): 1.0}), goal)
+    path = path_from(pred, start)
+    assert path[0] == start and path[-1] == goal
+    assert any({u, v} == {edge.a, edge.b} for u, v in itertools.pairwise(path))
+    assert 3.9 < value[start] < 5.5

@@ -1,0 +1,126 @@
+"""Segment relations (modeling.model.relations): candidate pairs, closest points, classification."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from modeling.model.gaps import Relation, gap_passable_probability
+from modeling.model.relations import (
+    candidate_pairs,
+    closest_points_reference,
+    prune_sigmas,
+    segment_relations,
+)
+
+W = 0.5
+EPS = 0.05
+
+
+def _layout(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 2, 2) endpoints on a 1/8 m grid (boxes that merely touch occur) and (n, 2, 2, 2)
+    stereo-like endpoint covariances."""
+    rng = np.random.default_rng(seed)
+    ends = np.round(rng.uniform(0.0, 6.0, (n, 2, 2)) * 8.0) / 8.0
+    cov = np.broadcast_to(np.diag([0.05**2, 0.01**2]), (n, 2, 2, 2)).copy()
+    return ends, cov
+
+
+def _brute_force_pairs(ends: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """Every pair ``i < j`` whose mean segments are within ``W + k (sigma_i + sigma_j)``."""
+    n = ends.shape[0]
+    i, j = np.triu_indices(n, k=1)
+    s, t = closest_points_reference(ends[i, 0], ends[i, 1], ends[j, 0], ends[j, 1])
+    pa = ends[i, 0] + s[:, None] * (ends[i, 1] - ends[i, 0])
+    pb = ends[j, 0] + t[:, None] * (ends[j, 1] - ends[j, 0])
+    sigma = np.sqrt((cov[:, :, 0, 0] + cov[:, :, 1, 1]).max(axis=1))
+    keep = np.hypot(*(pb - pa).T) <= W + prune_sigmas(EPS) * (sigma[i] + sigma[j])
+    return np.stack([i[keep], j[keep]], axis=1)
+
+
+@pytest.mark.parametrize("n", [2, 7, 40, 150])
+def test_candidate_pairs_are_the_brute_force_pairs_sorted(n: int) -> None:
+    # The STRtree's envelope query loses no pair of the exact filter, and the rows come sorted
+    # by (i, j), as the all-pairs loop it replaced gave them.
+    ends, cov = _layout(n, seed=n)
+    pairs = candidate_pairs(ends, cov, W, EPS)
+    expected = _brute_force_pairs(ends, cov)
+    assert pairs.dtype == np.int64 and np.array_equal(pairs, expected)
+    assert n < 40 or len(pairs) > 0
+
+
+def test_fewer_than_two_segments_have_no_pairs() -> None:
+    ends, cov = _layout(1, seed=0)
+    assert candidate_pairs(ends, cov, W).shape == (0, 2)
+    assert len(segment_relations(ends, cov, W, EPS)) == 0
+
+
+def test_a_doorway_is_undecided_and_a_wide_gap_passable() -> None:
+    # Two collinear wall pieces along x; depth (y) sd 0.1 m at every endpoint.
+    cov = np.broadcast_to(np.diag([0.01**2, 0.1**2]), (4, 2, 2, 2)).copy()
+    ends = np.array(
+        [
+            [[-2.0, 0.0], [0.0, 0.0]],
+            [[0.49, 0.0], [2.0, 0.0]],  # 0.49 m from the first: a doorway
+            [[3.6, 0.0], [5.0, 0.0]],
+            [[0.0, 0.05], [0.0, 1.0]],  # 5 cm from the first piece: impassable to it
+        ]
+    )
+    rel = segment_relations(ends, cov, W, EPS)
+    assert rel.kind_of(0, 1) is Relation.UNDECIDED
+    assert rel.kind_of(1, 0) is Relation.UNDECIDED  # symmetric
+    assert rel.kind_of(0, 3) is Relation.IMPASSABLE
+    assert rel.kind_of(1, 2) is Relation.PASSABLE  # 1.6 m apart: not even listed
+    assert rel.p_of(1, 2) == 1.0 and not np.any((rel.i == 1) & (rel.j == 2))
+    # The doorway's closest points are the facing endpoints, with the endpoints' covariances.
+    row = int(np.flatnonzero((rel.i == 0) & (rel.j == 1))[0])
+    assert np.array_equal(rel.point_i[row], [0.0, 0.0]) and np.array_equal(
+        rel.point_j[row], [0.49, 0.0]
+    )
+    assert np.array_equal(rel.cov_i[row], cov[0, 1]) and np.array_equal(rel.cov_j[row], cov[1, 0])
+    assert rel.distance_m[row] == pytest.approx(0.49)
+    exact = gap_passable_probability(
+        rel.point_i[row], rel.cov_i[row], rel.point_j[row], rel.cov_j[row], W
+    )
+    assert rel.p_of(0, 1) == pytest.approx(exact, abs=1e-4) and 0.05 < exact < 0.95
+
+
+def test_the_middle_of_a_long_wall_is_related() -> None:
+    # A short segment facing the middle of a long wall: the closest point is interpolated, with
+    # covariance (1 - t)^2 C0 + t^2 C1.
+    c0, c1 = np.diag([0.02**2, 0.04**2]), np.diag([0.03**2, 0.01**2])
+    ends = np.array([[[-3.0, 0.0], [3.0, 0.0]], [[1.5, 0.4], [1.5, 1.0]]])
+    cov = np.array([[c0, c1], [c0, c0]])
+    rel = segment_relations(ends, cov, W, EPS)
+    t = 4.5 / 6.0
+    np.testing.assert_allclose(rel.point_i[0], [1.5, 0.0], atol=1e-15)
+    np.testing.assert_allclose(rel.cov_i[0], (1 - t) ** 2 * c0 + t**2 * c1, rtol=1e-14)
+    assert rel.kind_of(0, 1) is Relation.IMPASSABLE  # 0.4 m < 0.5 m
+
+
+def test_given_pairs_in_either_order_give_the_same_rows() -> None:
+    ends, cov = _layout(30, seed=3)
+    rel = segment_relations(ends, cov, W, EPS)
+    flipped = np.stack([rel.j, rel.i], axis=1)
+    again = segment_relations(ends, cov, W, EPS, pairs=flipped)
+    for name in (
+        "i",
+        "j",
+        "point_i",
+        "point_j",
+        "cov_i",
+        "cov_j",
+        "distance_m",
+        "p_passable",
+        "kind",
+    ):
+        assert np.array_equal(getattr(again, name), getattr(rel, name)), name
+    sub = rel.subset(rel.kind == Relation.IMPASSABLE)
+    assert len(sub) == np.count_nonzero(rel.kind == Relation.IMPASSABLE) > 0
+    assert np.all(sub.kind == Relation.IMPASSABLE) and np.all(sub.i < sub.j)
+
+
+def test_a_zero_width_robot_passes_everywhere() -> None:
+    ends, cov = _layout(20, seed=4)
+    rel = segment_relations(ends, cov, 0.0, EPS)
+    assert len(rel) > 0 and np.all(rel.p_passable == 1.0) and np.all(rel.kind == Relation.PASSABLE)
