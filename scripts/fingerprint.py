@@ -1,0 +1,157 @@
+"""A behaviour fingerprint of the environments, for refactors that must change nothing.
+
+    python scripts/fingerprint.py --json FILE [--case NAME ...] [--compare OLD.json]
+
+Each case makes one env (id and keywords below), resets it with seed 7, takes seeded random
+actions and hashes, step by step, the observation, the reward, the end flags, the info (its
+``model`` and ``memory_model`` apart, hashed by content) and every tenth rendered frame. The hash
+walks dataclasses, arrays, dicts and sequences by value and names classes without their module,
+so moving code between modules keeps it; any change of a value, a dtype or a shape changes it.
+``--compare`` prints the cases whose hashes differ from an earlier file's and exits 1 if any do.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import enum
+import hashlib
+import json
+import os
+import pathlib
+import sys
+from typing import Any
+
+os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+
+import gymnasium as gym
+import numpy as np
+
+import stereo_nav_env  # noqa: F401  (registers the ids)
+
+CASES: dict[str, tuple[str, dict[str, Any], int]] = {
+    "v0_stereo_memory": ("StereoNav-v0", {"memory": True}, 40),
+    "v0_default_obs": ("StereoNav-v0", {}, 40),
+    "v1_stereo": ("StereoNav-v1", {}, 40),
+    "v1_surrogate_office": ("StereoNav-v1", {"perception": "surrogate", "scenario": "office"}, 80),
+    "v0_surrogate_memory_cluttered": (
+        "StereoNav-v0",
+        {"perception": "surrogate", "scenario": "cluttered", "memory": True},
+        60,
+    ),
+    "v1_stereo_ground_room": ("StereoNav-v1", {"scenario": "room", "ground_lines": True}, 30),
+    "discrete_v0_images": (
+        "StereoNavDiscrete-v0",
+        {"observation_mode": "both", "scenario": "corridor"},
+        25,
+    ),
+    "v0_model_memory": (
+        "StereoNav-v0",
+        {"observation_mode": "model_memory", "perception": "surrogate"},
+        50,
+    ),
+}
+"""Name: (env id, ``gym.make`` keywords, steps)."""
+
+_MODELS = ("model", "memory_model")
+
+
+def _feed(x: Any, h: Any, depth: int = 0) -> None:
+    """Feed ``x``'s content to the hash ``h`` (see the module doc)."""
+    if depth > 40:
+        h.update(b"<deep>")
+    elif x is None or isinstance(x, bool | int | str):
+        h.update(repr(x).encode())
+    elif isinstance(x, enum.Enum):
+        h.update(f"{type(x).__name__}.{x.name}".encode())
+    elif isinstance(x, float | np.generic):
+        h.update(np.asarray(x, np.float64 if isinstance(x, float) else None).tobytes())
+    elif isinstance(x, np.ndarray):
+        h.update(str((x.dtype.str, x.shape)).encode())
+        if x.dtype == object:
+            for v in x.ravel():
+                _feed(v, h, depth + 1)
+        else:
+            h.update(np.ascontiguousarray(x).tobytes())
+    elif isinstance(x, dict):
+        for k in sorted(x, key=repr):
+            _feed(k, h, depth + 1)
+            _feed(x[k], h, depth + 1)
+    elif isinstance(x, list | tuple | set | frozenset):
+        items = sorted(x, key=repr) if isinstance(x, set | frozenset) else x
+        h.update(b"(")
+        for v in items:
+            _feed(v, h, depth + 1)
+        h.update(b")")
+    elif dataclasses.is_dataclass(x):
+        h.update(type(x).__name__.encode())
+        for f in dataclasses.fields(x):
+            h.update(f.name.encode())
+            _feed(getattr(x, f.name), h, depth + 1)
+    elif hasattr(x, "wkb"):  # a shapely geometry
+        h.update(x.wkb)
+    else:
+        h.update(type(x).__name__.encode())
+        names = sorted(getattr(x, "__dict__", {}))
+        for name in names:
+            h.update(name.encode())
+            _feed(getattr(x, name), h, depth + 1)
+        if not names:
+            h.update(repr(x).encode())
+
+
+def digest(x: Any) -> str:
+    """A 16-hex-digit hash of ``x``'s content."""
+    h = hashlib.sha256()
+    _feed(x, h)
+    return h.hexdigest()[:16]
+
+
+def run_case(name: str) -> dict[str, Any]:
+    """The per-step hashes of case ``name`` and their combined hash."""
+    env_id, kwargs, steps = CASES[name]
+    env = gym.make(env_id, render_mode="rgb_array", **kwargs)
+    obs, info = env.reset(seed=7)
+    env.action_space.seed(11)
+    rows = [digest(obs), digest({k: v for k, v in info.items() if k not in _MODELS})]
+    rows += [digest(info.get(key)) for key in _MODELS] + [digest(env.render())]
+    for t in range(steps):
+        obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        rest = {k: v for k, v in info.items() if k not in _MODELS}
+        rows.append(digest((obs, reward, terminated, truncated, rest)))
+        rows += [digest(info.get(key)) for key in _MODELS]
+        if t % 10 == 0:
+            rows.append(digest(env.render()))
+        if terminated or truncated:
+            obs, info = env.reset()
+            rows.append(digest(obs))
+    env.close()
+    return {"hash": digest(rows), "steps": rows}
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the cases, write the JSON, compare with an earlier one; the exit status."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--json", type=pathlib.Path, required=True, help="output file")
+    parser.add_argument("--case", action="append", choices=sorted(CASES), help="(repeat)")
+    parser.add_argument("--compare", type=pathlib.Path, help="an earlier output to compare with")
+    args = parser.parse_args(argv)
+    results = {name: run_case(name) for name in args.case or CASES}
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    args.json.write_text(json.dumps(results, indent=1) + "\n")
+    for name, result in results.items():
+        print(f"{name:32s} {result['hash']}")
+    if args.compare is None:
+        return 0
+    old = json.loads(args.compare.read_text())
+    differ = [n for n in results if n in old and old[n]["hash"] != results[n]["hash"]]
+    for name in differ:
+        pairs = zip(old[name]["steps"], results[name]["steps"], strict=False)
+        first = next((i for i, (a, b) in enumerate(pairs) if a != b), "the length")
+        print(f"DIFFERS: {name} (first at row {first})")
+    print("identical" if not differ else f"{len(differ)} case(s) differ")
+    return 1 if differ else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
