@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from modeling.model.records import EnvironmentModel
+from modeling.types import FloatArray
 
 if TYPE_CHECKING:
     from stereo_nav_env.config import EnvConfig
@@ -38,7 +39,6 @@ __all__ = [
     "room_bounds",
 ]
 
-FloatArray = NDArray[np.float64]
 
 LOOK_THRESHOLD = 0.05
 """A step is a *look* when ``|head pan target| > LOOK_THRESHOLD`` (normalised; 4.5 deg of 90)."""

@@ -10,11 +10,11 @@ import math
 from typing import TypeVar
 
 import numpy as np
-from numpy.typing import NDArray
+
+from modeling.types import FloatArray
 
 __all__ = ["to_robot_frame", "wrap_angle"]
 
-FloatArray = NDArray[np.float64]
 A = TypeVar("A", float, FloatArray)
 
 

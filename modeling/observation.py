@@ -10,7 +10,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from modeling.validation import FloatArray, covariance, finite_array, positive, probabilities
+from modeling.types import FloatArray
+from modeling.validation import covariance, finite_array, positive, probabilities
 
 __all__ = ["AmbiguousSegment", "FloorObservation", "FloorSegment", "none_mass"]
 

@@ -62,6 +62,7 @@ from agents.evaluation.stereo_accuracy import FAMILIES, noisy_gray, scene_views
 from modeling.stereo.matching import StereoMatches, match_segments
 from modeling.stereo.rig import HeadPose, StereoRig
 from modeling.stereo.segments import ImageSegments, SegmentOptions, extract_segment_pair
+from modeling.types import FloatArray
 from stereo_nav_env.perception.surrogate.photometry import image_pieces
 from stereo_nav_env.perception.surrogate.rates import (
     EDGE_CLASSES,
@@ -80,8 +81,6 @@ DEPTH_BINS_M = (0.0, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0)
 ASSOCIATE_PX = 2.0
 MIN_EDGES_PER_BIN = 10
 CORRECT_PX = 1.0
-
-FloatArray = NDArray[np.float64]
 
 
 def drive_action(i: int) -> NDArray[np.float32]:

@@ -2,7 +2,7 @@
 
 :class:`EnvConfig` nests one sub-configuration per concern, and every value has one home:
 
-* ``world``: :class:`~stereo_nav_env.sim.world.WorldConfig` (robot size, dynamics, step length),
+* ``world``: :class:`WorldConfig` (robot size, dynamics, step length),
 * ``camera``: :class:`CameraConfig` (image size, focal length, baseline, pixel noise),
 * ``observation``: :class:`ObservationConfig` (what the observation holds and how big it is),
 * ``rewards``: :class:`RewardConfig` (the reward weights),
@@ -33,8 +33,7 @@ from typing import Any
 from modeling.stereo.rig import StereoRig
 from modeling.validation import boolean, from_flat, integer, number
 from stereo_nav_env.perception.base import PerceptionName
-from stereo_nav_env.sim.scenes import FAMILIES, available_maps
-from stereo_nav_env.sim.world import WorldConfig
+from stereo_nav_env.sim.scenes import DEFAULT_ROBOT_WIDTH_M, FAMILIES, available_maps
 
 __all__ = [
     "OBSERVATION_MODES",
@@ -124,6 +123,62 @@ def _instance(value: object, name: str, cls: type) -> None:
 
 
 # ------------------------------------------------------------------------------------ configs
+@dataclass(frozen=True, slots=True, kw_only=True)
+class WorldConfig:
+    """Physical parameters of the robot and the simulation.
+
+    Attributes:
+        robot_width_m: Diameter of the disc robot, metres.
+        robot_height_m: Height of the robot, metres (what it cannot pass under).
+        head_height_m: Height of the stereo head's optical centres above the floor, metres.
+        max_speed_m_s: Largest forward speed magnitude, m/s (commands are clipped to it).
+        max_turn_rate_rad_s: Largest body turn rate magnitude, rad/s.
+        max_pan_rate_rad_s: Largest head pan rate, rad/s.
+        pan_limit_rad: The pan stays within ``[-pan_limit_rad, pan_limit_rad]`` of the body heading.
+        dt_s: Duration of one :meth:`World.step`, seconds.
+        substeps: Physics substeps per step.
+    """
+
+    robot_width_m: float = DEFAULT_ROBOT_WIDTH_M
+    robot_height_m: float = 1.0
+    head_height_m: float = 0.8
+    max_speed_m_s: float = 0.5
+    max_turn_rate_rad_s: float = math.pi / 2
+    max_pan_rate_rad_s: float = math.pi / 2
+    pan_limit_rad: float = math.pi / 2
+    dt_s: float = 0.1
+    substeps: int = 10
+
+    def __post_init__(self) -> None:
+        for name in (
+            "robot_width_m",
+            "robot_height_m",
+            "head_height_m",
+            "max_speed_m_s",
+            "max_turn_rate_rad_s",
+            "max_pan_rate_rad_s",
+            "dt_s",
+        ):
+            number(getattr(self, name), name, low=0.0)
+        number(self.pan_limit_rad, "pan_limit_rad", low=0.0, high=math.pi, strict=False)
+        integer(self.substeps, "substeps", low=1)
+        if self.head_height_m > self.robot_height_m:
+            raise ValueError(
+                f"head_height_m ({self.head_height_m}) must not exceed robot_height_m "
+                f"({self.robot_height_m})"
+            )
+        if self.max_speed_m_s * self.dt_s / self.substeps > self.robot_width_m / 10:
+            raise ValueError(
+                "substeps too few: max_speed_m_s * dt_s / substeps must be <= robot_width_m / 10 "
+                "so the robot cannot tunnel"
+            )
+
+    @property
+    def robot_radius_m(self) -> float:
+        """Radius of the robot disc, metres."""
+        return self.robot_width_m / 2.0
+
+
 @dataclass(frozen=True, slots=True, kw_only=True)
 class CameraConfig:
     """The stereo camera: a rectified horizontal pair, and the noise of its pixels.
@@ -305,7 +360,7 @@ class EnvConfig:
             (``info["memory_model"]``, the ``memory_*`` diagnostics; the ``"memory"`` observation
             modes need it). ``False`` saves that cost (``info["memory_model"]`` is ``None``).
         diagnostics: Whether ``info["diagnostics"]`` compares the model with ground truth.
-        world: The robot and its physics (:class:`~stereo_nav_env.sim.world.WorldConfig`).
+        world: The robot and its physics (:class:`WorldConfig`).
         camera: The stereo camera and its pixel noise (:class:`CameraConfig`).
         observation: What the observation holds (:class:`ObservationConfig`).
         rewards: Reward weights (:class:`RewardConfig`).

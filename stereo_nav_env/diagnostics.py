@@ -72,6 +72,7 @@ from modeling.memory.association import gated_pairs, stack_of
 from modeling.memory.fusion import ModelMemory
 from modeling.model.records import EnvironmentModel
 from modeling.stereo.faces import FACE_SOURCE
+from modeling.types import FloatArray
 from stereo_nav_env.sim.scenes import Scene
 
 __all__ = [
@@ -83,7 +84,6 @@ __all__ = [
     "normalised_outline_errors",
 ]
 
-FloatArray = NDArray[np.float64]
 DIAGNOSTIC_NAMES = (
     "nees_mean",
     "coverage_95",

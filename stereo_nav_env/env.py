@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 from modeling.memory.fusion import ModelMemory
 from modeling.model.records import EnvironmentModel
 from modeling.stereo.rig import HeadPose, StereoRig
+from modeling.types import UInt8Image
 from stereo_nav_env.actions import DISCRETE_ACTIONS, continuous_command, discrete_command
 from stereo_nav_env.config import EnvConfig
 from stereo_nav_env.diagnostics import GroundTruth, memory_diagnostics, model_diagnostics
@@ -47,7 +48,6 @@ from stereo_nav_env.sim.world import Contact, World
 
 __all__ = ["StereoNavDiscreteEnv", "StereoNavEnv"]
 
-UInt8Image = NDArray[np.uint8]
 Obs = dict[str, NDArray[Any]]
 
 STAGES = tuple(

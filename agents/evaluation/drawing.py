@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 
 from modeling.stereo.rig import HeadPose, StereoRig
 from stereo_nav_env.sim.scenes import ObstacleKind, Scene
+from stereo_nav_env.sim.scenes.types import DEFAULT_ROBOT_WIDTH_M
 
 __all__ = ["render_demo", "write_stereo_pngs", "write_topdown_png"]
 
@@ -39,7 +40,7 @@ def write_topdown_png(
     scene: Scene,
     path: str | pathlib.Path,
     *,
-    robot_width_m: float = 0.5,
+    robot_width_m: float = DEFAULT_ROBOT_WIDTH_M,
     robot_pose: tuple[float, float, float] | None = None,
     head_pose: HeadPose | None = None,
     rig: StereoRig | None = None,
@@ -126,7 +127,7 @@ def render_demo(
     out_dir: str | pathlib.Path,
     *,
     rig: StereoRig | None = None,
-    robot_width_m: float = 0.5,
+    robot_width_m: float = DEFAULT_ROBOT_WIDTH_M,
     head_height_m: float = 0.8,
 ) -> dict[str, pathlib.Path]:
     """Top-down picture and stereo pair from the scene's start pose.

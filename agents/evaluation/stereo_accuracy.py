@@ -63,10 +63,9 @@ from modeling.stereo.pipeline import to_gray
 from modeling.stereo.rig import HeadPose, StereoRig
 from modeling.stereo.segments import ImageSegments, extract_segment_pair
 from modeling.stereo.triangulation import triangulate_to_floor
+from modeling.types import FloatArray
 from stereo_nav_env.rendering.renderer import StereoRenderer
 from stereo_nav_env.sim.scenes import ObstacleKind, Scene, generate_scene
-
-FloatArray = NDArray[np.float64]
 
 HEAD_HEIGHT_M = 0.8
 """Height of the left optical centre above the floor in every view, metres."""

@@ -25,12 +25,10 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from agents.planning.gridmap import Gate, GridSpec, _line_points
+from modeling.types import BoolArray, FloatArray, IntArray
 
 __all__ = ["CostGrid", "GateEdge", "cost_from", "cost_to_go", "path_from", "path_length_m"]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-BoolArray = NDArray[np.bool_]
 
 _OFFSETS = ((0, 1), (1, 0), (0, -1), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1))
 

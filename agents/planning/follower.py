@@ -13,14 +13,13 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from agents.base import ControlLimits
 from modeling.geometry import wrap_angle
+from modeling.types import FloatArray
 
 __all__ = ["PathFollower", "RouteDriver", "pan_towards"]
-
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 
 from modeling.geometry import wrap_angle
 from modeling.model.records import EnvironmentModel, Situation
+from modeling.types import BoolArray, FloatArray
 
 __all__ = [
     "Gate",
@@ -50,9 +51,6 @@ __all__ = [
     "top_situations",
     "visible_mask",
 ]
-
-FloatArray = NDArray[np.float64]
-BoolArray = NDArray[np.bool_]
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

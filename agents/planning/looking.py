@@ -36,13 +36,12 @@ from agents.planning.decision import (
 )
 from agents.planning.gridmap import Gate
 from modeling.geometry import wrap_angle
+from modeling.types import FloatArray
 
 if TYPE_CHECKING:
     from agents.planning.planner import SituationPlan
 
 __all__ = ["InformationChoice", "LookKind", "best_information", "line_of_sight", "look_cost_m"]
-
-FloatArray = NDArray[np.float64]
 
 
 class LookKind(str, enum.Enum):

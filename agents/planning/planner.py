@@ -54,10 +54,9 @@ from agents.planning.gridmap import (
 )
 from agents.planning.looking import LookKind, best_information
 from modeling.model.records import EnvironmentModel, Situation
+from modeling.types import FloatArray
 
 __all__ = ["Decision", "Mode", "PlannerCore", "SituationPlan", "expected_gate_weight"]
-
-FloatArray = NDArray[np.float64]
 
 
 class Mode(str, enum.Enum):

@@ -19,15 +19,13 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
 from agents.base import ControlLimits
 from agents.planning.config import NavigatorConfig
 from modeling.geometry import wrap_angle
+from modeling.types import FloatArray
 
 __all__ = ["Bump", "Recovery", "RecoveryEvents"]
-
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)

@@ -15,13 +15,13 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 import shapely
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from shapely.geometry import LineString, Point, Polygon
 from shapely.ops import unary_union
 
-__all__ = ["Route", "free_space", "shortest_route"]
+from modeling.types import FloatArray
 
-FloatArray = NDArray[np.float64]
+__all__ = ["Route", "free_space", "shortest_route"]
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)

@@ -35,7 +35,7 @@ from modeling.memory.association import (
     subset,
 )
 from modeling.observation import P_NONE_ATOL, AmbiguousSegment, FloorSegment, none_mass
-from modeling.validation import FloatArray
+from modeling.types import FloatArray
 
 __all__ = [
     "AmbiguityUpdate",

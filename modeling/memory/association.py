@@ -36,7 +36,7 @@ from scipy.optimize import linear_sum_assignment
 
 from modeling.memory._kernels.association import fuse_pairs, gate_pairs
 from modeling.observation import FloorSegment
-from modeling.validation import FloatArray
+from modeling.types import FloatArray
 
 __all__ = [
     "Association",

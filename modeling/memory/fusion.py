@@ -118,7 +118,8 @@ from modeling.memory.visibility import Visibility, flat_in_image, visibility
 from modeling.model.build import ModelOptions, build_model
 from modeling.model.records import EnvironmentModel
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
-from modeling.validation import FloatArray, finite_array, integer, positive, with_overrides
+from modeling.types import FloatArray
+from modeling.validation import finite_array, integer, positive, with_overrides
 
 __all__ = ["MemoryOptions", "ModelMemory", "add_contact", "build_memory_model", "fuse"]
 

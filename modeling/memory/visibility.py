@@ -24,7 +24,7 @@ import shapely
 from modeling.geometry import wrap_angle
 from modeling.model.occlusion import ray_hits
 from modeling.observation import FloorObservation
-from modeling.validation import FloatArray
+from modeling.types import FloatArray
 
 __all__ = ["Visibility", "flat_in_image", "visibility"]
 

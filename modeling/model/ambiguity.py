@@ -47,7 +47,7 @@ from modeling.model.gaps import Relation
 from modeling.model.obstacles import components
 from modeling.model.relations import SegmentRelations, closest_points
 from modeling.observation import FloorObservation
-from modeling.validation import FloatArray
+from modeling.types import FloatArray
 
 __all__ = [
     "NONE",

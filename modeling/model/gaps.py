@@ -54,7 +54,8 @@ from modeling.model._kernels.gap import (
     HermiteGrid,
     QuadratureRules,
 )
-from modeling.validation import FloatArray, covariance, finite_array, positive
+from modeling.types import FloatArray
+from modeling.validation import covariance, finite_array, positive
 
 __all__ = [
     "GH_FEW_SLOPE",

@@ -22,7 +22,7 @@ import numpy as np
 from modeling.model.gaps import Relation
 from modeling.model.relations import SegmentRelations, segment_relations
 from modeling.observation import FloorObservation
-from modeling.validation import FloatArray
+from modeling.types import FloatArray
 
 __all__ = [
     "Isolation",

@@ -21,7 +21,7 @@ from scipy.sparse.csgraph import connected_components
 from modeling.model._kernels import hull as _hull_kernel
 from modeling.model._kernels.hull import HullSets, Polygons
 from modeling.model.records import Obstacle
-from modeling.validation import FloatArray
+from modeling.types import FloatArray
 
 __all__ = [
     "components",

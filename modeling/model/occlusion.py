@@ -33,7 +33,7 @@ from modeling.model._kernels import sweep as _kernel
 from modeling.model._kernels.sweep import RaysAndSegments, RaySweep, Rings
 from modeling.model.records import Situation
 from modeling.observation import FloorObservation
-from modeling.validation import FloatArray
+from modeling.types import FloatArray
 
 __all__ = [
     "RaySweep",

@@ -17,7 +17,7 @@ import numpy as np
 from modeling.model._kernels import partition as _kernel
 from modeling.model._kernels.partition import Groups, PartitionArrays
 from modeling.model.obstacles import components
-from modeling.validation import FloatArray
+from modeling.types import FloatArray
 
 __all__ = ["Groups", "PartitionArrays", "partition_arrays", "partition_arrays_reference"]
 

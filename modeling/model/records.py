@@ -17,7 +17,8 @@ import shapely
 
 from modeling.model.relations import SegmentRelations
 from modeling.observation import FloorObservation
-from modeling.validation import FloatArray, positive
+from modeling.types import FloatArray
+from modeling.validation import positive
 
 if TYPE_CHECKING:  # pragma: no cover
     import networkx as nx
@@ -127,7 +128,7 @@ class Situation:
     critical_regions: tuple[CriticalRegion, ...]
     choice: dict[int, int]
     passages: tuple[Passage, ...] = ()
-    robot_width_m: float = 0.5
+    robot_width_m: float
 
     def path_graph(
         self, start_xy: Sequence[float], goal_xy: Sequence[float], **kw: Any

@@ -37,7 +37,7 @@ from modeling.model.gaps import (
     classify_gaps,
     gap_passable_probability,
 )
-from modeling.validation import FloatArray
+from modeling.types import FloatArray
 
 __all__ = [
     "SegmentRelations",

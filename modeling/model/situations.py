@@ -44,7 +44,7 @@ from modeling.model.obstacles import make_obstacles
 from modeling.model.partitions import partition_arrays
 from modeling.model.records import CriticalRegion, Obstacle, Passage, Situation
 from modeling.model.relations import SegmentRelations
-from modeling.validation import FloatArray
+from modeling.types import FloatArray
 
 __all__ = ["enumerate_situations", "k_best"]
 

@@ -55,7 +55,8 @@ from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import Delaunay, QhullError, cKDTree
 
 from modeling.model.records import EnvironmentModel, Situation, safe_linestrings
-from modeling.validation import FloatArray, finite_array, positive
+from modeling.types import FloatArray
+from modeling.validation import finite_array, positive
 
 __all__ = ["Route", "model_routes", "path_graph", "routes", "situation_graph"]
 

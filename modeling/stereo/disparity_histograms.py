@@ -35,7 +35,7 @@ from modeling.stereo._kernels.match import (
     PeakRule,
     histogram_rows,
 )
-from modeling.validation import FloatArray
+from modeling.types import FloatArray, IntArray
 
 __all__ = [
     "Splat",
@@ -44,8 +44,6 @@ __all__ = [
     "histogram_inputs_reference",
     "region_histograms",
 ]
-
-IntArray = NDArray[np.int64]
 
 
 class Splat(NamedTuple):

@@ -38,17 +38,15 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from modeling.observation import FloorObservation, FloorSegment
 from modeling.stereo._kernels.face import FaceEdges, FaceJoins, FaceTest, face_joins
 from modeling.stereo.segments import ImageSegments
+from modeling.types import IntArray
 from modeling.validation import boolean, positive, with_overrides
 
 __all__ = ["FACE_SOURCE", "FaceOptions", "close_faces", "face_joins_reference", "face_pairs"]
 
-
-IntArray = NDArray[np.int64]
 
 #: ``FloorSegment.source`` of a face's segment (it joins two measured segments, is not one).
 FACE_SOURCE = -2

@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 from modeling.observation import FloorObservation, FloorSegment
 from modeling.stereo.rig import HeadPose, StereoRig
 from modeling.stereo.segments import ImageSegments
+from modeling.types import FloatArray
 from modeling.validation import instance, positive, with_overrides
 
 __all__ = [
@@ -46,7 +47,6 @@ __all__ = [
     "lowest_lines",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: ``FloorSegment.source`` of a ground line's segment (an unmatched image line, no left index).
 GROUND_SOURCE = -3

@@ -69,7 +69,8 @@ from modeling.stereo._kernels.match import (
 from modeling.stereo.disparity_histograms import Splat, histogram_inputs, region_histograms
 from modeling.stereo.rig import StereoRig
 from modeling.stereo.segments import ImageSegments
-from modeling.validation import FloatArray, positive, with_overrides
+from modeling.types import FloatArray, IntArray
+from modeling.validation import positive, with_overrides
 
 __all__ = [
     "MatchCandidates",
@@ -80,7 +81,6 @@ __all__ = [
     "match_segments",
 ]
 
-IntArray = NDArray[np.int64]
 
 BIN_PX = 1.0  # disparity histogram bin, px (peaks are refined to sub-bin by a parabola)
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from modeling.validation import FloatArray
+from modeling.types import FloatArray
 
 __all__ = ["HeadPose", "StereoRig"]
 

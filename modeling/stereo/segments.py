@@ -67,7 +67,8 @@ from modeling.stereo._kernels.edge import (
     segment_fits,
 )
 from modeling.stereo.rig import StereoRig
-from modeling.validation import FloatArray, instance, positive, with_overrides
+from modeling.types import FloatArray, IntArray
+from modeling.validation import instance, positive, with_overrides
 from modeling.worker import worker
 
 __all__ = [
@@ -80,7 +81,6 @@ __all__ = [
 
 _DEFAULT_SIGMA_PX = StereoRig().sigma_px  # of the default rig
 
-IntArray = NDArray[np.int64]
 
 # one detector per thread and scale: an OpenCV LSD object keeps working buffers between calls
 _LSD_LOCAL = threading.local()

@@ -48,7 +48,8 @@ from modeling.observation import P_NONE_ATOL, AmbiguousSegment, FloorObservation
 from modeling.stereo._kernels.tri import FloorFrame, FloorRows, MatchRows, floor_rows
 from modeling.stereo.matching import StereoMatches
 from modeling.stereo.rig import HeadPose, StereoRig
-from modeling.validation import FloatArray, instance, number, with_overrides
+from modeling.types import FloatArray
+from modeling.validation import instance, number, with_overrides
 
 __all__ = [
     "TriangulationOptions",

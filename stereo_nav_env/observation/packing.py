@@ -82,6 +82,7 @@ from numpy.typing import NDArray
 from modeling.geometry import to_robot_frame
 from modeling.model.records import EnvironmentModel
 from modeling.stereo.rig import StereoRig
+from modeling.types import Float32Array
 from stereo_nav_env.config import REGION_FEATURES, ObservationConfig
 from stereo_nav_env.observation.raster import rasterize_memory, rasterize_model, rasterize_policy
 
@@ -98,8 +99,6 @@ __all__ = [
     "to_robot_frame",
 ]
 
-FloatArray = NDArray[np.float64]
-Float32Array = NDArray[np.float32]
 GOAL_RANGE_M = 100.0
 """Bound of the goal coordinates, metres (scenes are far smaller)."""
 _PI32 = np.float32(math.pi)

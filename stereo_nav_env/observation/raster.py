@@ -47,6 +47,7 @@ from numpy.typing import NDArray
 
 from modeling.model.records import EnvironmentModel, Situation
 from modeling.observation import FloorObservation
+from modeling.types import FloatArray
 from stereo_nav_env.config import ObservationConfig
 
 __all__ = [
@@ -62,7 +63,6 @@ __all__ = [
     "world_to_raster",
 ]
 
-FloatArray = NDArray[np.float64]
 UNSEEN_VALUE = 128
 UNKNOWN_VALUE = 255
 _SHIFT = 4

@@ -16,12 +16,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from modeling.model.records import EnvironmentModel
+from modeling.types import FloatArray
 from stereo_nav_env.config import ObservationConfig
 from stereo_nav_env.observation.raster import visible_mask
 
 __all__ = ["SeenFloor"]
 
-FloatArray = NDArray[np.float64]
 
 _ZERO = np.zeros(1, dtype=np.uint8)
 """The scalar 0 as OpenCV's ``compare`` takes it (a one-element array, broadcast)."""

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 from scipy.special import ndtri
 
 from modeling.jit import compiled_on_first_call
+from modeling.types import UInt8Image
 
 __all__ = [
     "add_pixel_noise",
@@ -28,7 +29,6 @@ __all__ = [
     "noisy_grey_reference",
 ]
 
-UInt8Image = NDArray[np.uint8]
 _NOISE_LEVELS = 1 << 16
 
 

@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from modeling.model.build import build_model
 from modeling.stereo.pipeline import stereo_to_floor, to_gray
 from modeling.stereo.rig import HeadPose, StereoRig
+from modeling.types import UInt8Image
 from modeling.worker import worker
 from stereo_nav_env.perception.base import (
     ComparableModel,
@@ -39,8 +40,6 @@ if TYPE_CHECKING:  # pragma: no cover
     from stereo_nav_env.config import EnvConfig
 
 __all__ = ["StereoPerception", "perceive"]
-
-UInt8Image = NDArray[np.uint8]
 
 
 def perceive(

@@ -47,6 +47,7 @@ import trimesh
 from numpy.typing import NDArray
 
 from modeling.stereo.rig import HeadPose, StereoRig
+from modeling.types import FloatArray, UInt8Image
 from stereo_nav_env.rendering.shading import (
     BACKGROUND_COLOR,
     BOTTOM_SHADE,
@@ -67,8 +68,6 @@ __all__ = [
     "face_shade",
 ]
 
-UInt8Image = NDArray[np.uint8]
-FloatArray = NDArray[np.float64]
 
 _OPENCV_TO_OPENGL = np.diag([1.0, -1.0, -1.0, 1.0])
 

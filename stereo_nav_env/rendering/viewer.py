@@ -28,7 +28,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from modeling.model.records import EnvironmentModel
+from modeling.types import FloatArray, UInt8Image
 from stereo_nav_env.sim.scenes import ObstacleKind, Scene
+from stereo_nav_env.sim.scenes.types import DEFAULT_ROBOT_WIDTH_M
 
 __all__ = [
     "FRAME_HEIGHT",
@@ -40,8 +42,6 @@ __all__ = [
     "passability_color",
 ]
 
-FloatArray = NDArray[np.float64]
-UInt8Image = NDArray[np.uint8]
 FRAME_HEIGHT = 480
 FRAME_WIDTH = 960
 MAP_WIDTH = 640
@@ -111,7 +111,9 @@ def _blend(dst: UInt8Image, overlay: UInt8Image, mask: NDArray[np.bool_], alpha:
         dst[mask] = (dst[mask] * (1 - alpha) + overlay[mask] * alpha).astype(np.uint8)
 
 
-def draw_background(scene: Scene, view: MapView, robot_width_m: float = 0.5) -> UInt8Image:
+def draw_background(
+    scene: Scene, view: MapView, robot_width_m: float = DEFAULT_ROBOT_WIDTH_M
+) -> UInt8Image:
     """The static part of the frame (H, W, 3) uint8 RGB: floor, true footprints, and the true
     doubtful gaps (within 30 % of ``robot_width_m``) as thin lines, dark green where the robot
     fits and dark red where it does not."""

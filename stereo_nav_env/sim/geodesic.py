@@ -27,11 +27,11 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from modeling.types import FloatArray
 from stereo_nav_env.sim.scenes import Scene
 
 __all__ = ["GeodesicField"]
 
-FloatArray = NDArray[np.float64]
 
 # (row, col) moves of the 16-connected grid (one direction of each undirected pair), and the
 # cells a move crosses besides its two ends (which must be free too).

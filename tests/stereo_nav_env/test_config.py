@@ -14,7 +14,7 @@ from stereo_nav_env.config import (
     ObservationMode,
     RewardConfig,
 )
-from stereo_nav_env.sim.world import WorldConfig
+from stereo_nav_env.config import WorldConfig
 
 
 def test_flat_keywords_reach_the_sub_configuration_that_owns_them() -> None:

@@ -17,12 +17,9 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import NDArray
 
 from modeling.jit import compiled_helper, compiled_on_first_call
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
+from modeling.types import FloatArray, IntArray
 
 
 class MatchRows(NamedTuple):

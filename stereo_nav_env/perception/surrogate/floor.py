@@ -15,9 +15,9 @@ centre of the top-left pixel); camera depth ``Z`` along the optical axis, ``X`` 
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
 
 from modeling.stereo.rig import HeadPose, StereoRig
+from modeling.types import BoolArray, FloatArray, IntArray
 from stereo_nav_env.perception.surrogate._kernels.visibility import (
     floor_hidden_loop,
     floor_lines_loop,
@@ -38,10 +38,6 @@ __all__ = [
     "visible_floor_lines",
     "visible_floor_lines_reference",
 ]
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-BoolArray = NDArray[np.bool_]
 
 
 def floor_hidden_reference(edges: SceneEdges, head: HeadPose, points: FloatArray) -> BoolArray:

@@ -42,6 +42,7 @@ from numpy.typing import NDArray
 
 from modeling.stereo.rig import HeadPose, StereoRig
 from modeling.stereo.segments import SegmentOptions
+from modeling.types import FloatArray, IntArray
 from stereo_nav_env.perception.surrogate._kernels.segments import (
     Surfaces,
     first_surfaces_loop,
@@ -63,8 +64,6 @@ __all__ = [
     "surface_arrays",
 ]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 ROWS = 12
 """Rows sampled along each edge's seen run (evenly, each the middle of an equal share)."""

@@ -18,15 +18,13 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from modeling.types import FloatArray, IntArray
 from stereo_nav_env.perception.surrogate.visibility import SceneEdges, VisibleEdges
 from stereo_nav_env.sim.scenes import ObstacleKind
 
 __all__ = ["EDGE_CLASSES", "RATES_FILE", "SurrogateRates", "default_rates", "edge_classes"]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 RATES_FILE = "surrogate_rates.json"
 """The measured rates, in this package's ``data/`` (written by ``scripts/measure_surrogate.py``)."""

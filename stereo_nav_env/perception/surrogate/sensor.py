@@ -60,6 +60,7 @@ from modeling.stereo.matching import match_segments
 from modeling.stereo.rig import HeadPose, StereoRig
 from modeling.stereo.segments import ImageSegments, SegmentOptions
 from modeling.stereo.triangulation import triangulate_to_floor
+from modeling.types import FloatArray, IntArray
 from stereo_nav_env.perception.base import ComparableModel, Perception, PerceptionName, Stopwatch
 from stereo_nav_env.perception.surrogate._kernels.segments import (
     image_fits_loop,
@@ -83,9 +84,6 @@ __all__ = [
     "surrogate_segments",
     "surrogate_segments_reference",
 ]
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 _SEGMENT_OPTIONS = SegmentOptions()

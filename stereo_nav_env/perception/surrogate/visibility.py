@@ -34,6 +34,7 @@ import shapely
 from numpy.typing import NDArray
 
 from modeling.stereo.rig import HeadPose, StereoRig
+from modeling.types import BoolArray, FloatArray, IntArray
 from stereo_nav_env.perception.surrogate._kernels.visibility import (
     edge_candidates_loop,
     seen_runs_loop,
@@ -65,9 +66,6 @@ __all__ = [
     "visible_edges_reference",
 ]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-BoolArray = NDArray[np.bool_]
 
 PULL_BACK_M = 0.005
 """The sight line stops this short of the edge, so that it does not touch the edge's own part."""

@@ -16,12 +16,20 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from shapely.geometry import Point, Polygon, box
 
+from modeling.types import FloatArray
 from modeling.validation import positive
 from stereo_nav_env.sim.scenes.parts import make_obstacle, oriented_rect
-from stereo_nav_env.sim.scenes.types import DEFAULT_MARGIN_M, Color, Obstacle, ObstacleKind, Scene
+from stereo_nav_env.sim.scenes.types import (
+    DEFAULT_MARGIN_M,
+    DEFAULT_ROBOT_WIDTH_M,
+    Color,
+    Obstacle,
+    ObstacleKind,
+    Scene,
+)
 
 __all__ = [
     "BOX_PALETTE",
@@ -32,7 +40,6 @@ __all__ = [
     "generate_scene",
 ]
 
-FloatArray = NDArray[np.float64]
 
 STANDARD_FAMILIES = ("room", "corridor", "cluttered", "office")
 """The families with doubtful gaps (``"random"`` draws among these)."""
@@ -340,7 +347,7 @@ def generate_scene(
     seed: int,
     *,
     family: str = "room",
-    robot_width_m: float = 0.5,
+    robot_width_m: float = DEFAULT_ROBOT_WIDTH_M,
     margin_m: float = DEFAULT_MARGIN_M,
     min_doubtful_gaps: int | None = None,
     goal_distance_m: tuple[float, float] | None = None,

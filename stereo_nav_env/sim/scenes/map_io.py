@@ -76,6 +76,7 @@ from stereo_nav_env.sim.scenes.parts import build_parts, make_obstacle, oriented
 from stereo_nav_env.sim.scenes.types import (
     DEFAULT_COLOR,
     DEFAULT_HEIGHT_M,
+    DEFAULT_ROBOT_WIDTH_M,
     BoxPart,
     Obstacle,
     ObstacleKind,
@@ -328,7 +329,9 @@ def available_maps() -> tuple[str, ...]:
     return tuple(sorted(p.stem for p in MAPS_DIR.glob("*.json")))
 
 
-def load_scenario(scenario: str, seed: int = 0, *, robot_width_m: float = 0.5) -> Scene:
+def load_scenario(
+    scenario: str, seed: int = 0, *, robot_width_m: float = DEFAULT_ROBOT_WIDTH_M
+) -> Scene:
     """A scene by name: a bundled map, a ``.json`` path, a family name, or ``"random"``.
 
     Args:

@@ -15,9 +15,10 @@ import math
 
 import numpy as np
 import shapely
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from shapely.geometry import Polygon
 
+from modeling.types import FloatArray
 from stereo_nav_env.sim.scenes.types import (
     DEFAULT_COLOR,
     DEFAULT_HEIGHT_M,
@@ -32,7 +33,6 @@ from stereo_nav_env.sim.scenes.types import (
 
 __all__ = ["build_parts", "make_obstacle", "oriented_rect"]
 
-FloatArray = NDArray[np.float64]
 
 _LEG_COLOR: Color = (0.22, 0.18, 0.15)
 _BACK_COLOR: Color = (0.20, 0.14, 0.10)

@@ -25,16 +25,18 @@ from typing import Any
 
 import numpy as np
 import shapely
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from shapely.geometry import Point, Polygon, box
 from shapely.ops import unary_union
 
+from modeling.types import FloatArray
 from modeling.validation import positive
 
 __all__ = [
     "DEFAULT_COLOR",
     "DEFAULT_HEIGHT_M",
     "DEFAULT_MARGIN_M",
+    "DEFAULT_ROBOT_WIDTH_M",
     "BoxPart",
     "Color",
     "Gap",
@@ -43,8 +45,11 @@ __all__ = [
     "Scene",
 ]
 
-FloatArray = NDArray[np.float64]
 Color = tuple[float, float, float]
+
+DEFAULT_ROBOT_WIDTH_M = 0.5
+"""The robot's width (diameter), metres, where none is configured: ``WorldConfig.robot_width_m``'s
+default, and what the scene generator sizes its near-width gaps for unless told otherwise."""
 
 DEFAULT_MARGIN_M = 0.05
 """Clearance kept on each side of the robot by :meth:`Scene.free_space`, metres."""

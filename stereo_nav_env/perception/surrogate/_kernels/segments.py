@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from modeling.jit import compiled_helper, compiled_on_first_call
+from modeling.types import FloatArray, Int8Array, IntArray
 
 __all__ = [
     "first_surfaces_loop",
@@ -26,9 +27,6 @@ __all__ = [
     "segment_pieces_loop",
 ]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-Int8Array = NDArray[np.int8]
 Surfaces = tuple[
     float,
     FloatArray,

@@ -14,9 +14,9 @@ metres, z up.
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
 
 from modeling.jit import compiled_helper, compiled_on_first_call
+from modeling.types import BoolArray, FloatArray, IntArray
 
 __all__ = [
     "crossing",
@@ -25,10 +25,6 @@ __all__ = [
     "floor_lines_loop",
     "seen_runs_loop",
 ]
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-BoolArray = NDArray[np.bool_]
 
 
 @compiled_helper
