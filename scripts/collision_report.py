@@ -10,7 +10,7 @@ pan, the contact's bearing from the body heading and in how many earlier steps t
 lay in the field of view beyond the blind band (``EnvConfig.blind_range_m``) and within
 ``--view-range`` metres: a contact point often in view was something the model could have shown.
 For the model-based agents (``greedy``, ``cautious``, ``planner``) also what their occupancy map
-(:class:`agents.planning.gridmap.OccupancyMemory`) knew of the contact point: ``held_before`` (a
+(:class:`agents.planning.gridmap.OccupancyMap`) knew of the contact point: ``held_before`` (a
 cell within 0.2 m of it counted as an obstacle just before the step) and ``ever_held`` (one had had
 positive log-odds at some earlier step of the episode: held, then cleared, when not
 ``held_before``). With ``--memory`` (the env keeps its fused memory, which the agents do not
@@ -130,9 +130,9 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
             poses.append((state.x_m, state.y_m, state.heading_rad + state.pan_rad))
             fused = base.memory  # before the step (None without --memory)
             core = getattr(agent, "core", None)
-            occupied = None if core is None else core.memory.occupied()
+            occupied = None if core is None else core.occupancy.occupied()
             if core is not None:
-                lo = core.memory.log_odds
+                lo = core.occupancy.log_odds
                 most = lo.copy() if most is None else np.maximum(most, lo)
             action = agent.act(obs, info)
             obs, _, terminated, truncated, info = env.step(action)

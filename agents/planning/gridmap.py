@@ -1,10 +1,10 @@
-"""What the scripted agents remember between observations: an occupancy grid and the gates.
+"""What the scripted agents remember between observations: an occupancy map and the gates.
 
 The environment model of one observation covers only the field of view of one stereo pair
 (ARCHITECTURE.md: ``info["model"]`` is the model of the latest observation). The agents keep, in
 the world frame:
 
-* :class:`OccupancyMemory`: log-odds occupancy on a regular grid over the room's bounds. Every
+* :class:`OccupancyMap`: log-odds occupancy on a regular grid over the room's bounds. Every
   observation adds the obstacles of its situations, weighted by the situations' probabilities,
   and every unambiguous floor segment (also those the model drops as isolated and short: a
   vertical edge seen alone is still something solid), within ``insert_range_m`` (far segments are
@@ -18,7 +18,7 @@ the world frame:
   stays in the grid while the robot drives up to it. Only nearby: far confident phantoms of the
   memory would close routes. Off by default (``fused_range_m`` 0): on the suite it cuts
   collisions and closes narrow passages (``docs/evaluation.md``).
-* :class:`GateMemory`: the critical regions seen so far, as :class:`Gate` s with the width
+* :class:`GateHistory`: the critical regions seen so far, as :class:`Gate` s with the width
   distribution of their narrowest relation. A new observation of the same region replaces the
   estimate when it is not much less certain (a closer look narrows it); a look at a remembered gate
   that finds both its sides but no critical region between them decides it (passable when they are
@@ -42,9 +42,9 @@ from modeling.types import BoolArray, FloatArray
 
 __all__ = [
     "Gate",
-    "GateMemory",
+    "GateHistory",
     "GridSpec",
-    "OccupancyMemory",
+    "OccupancyMap",
     "observed_segments",
     "rasterize_lines",
     "rasterize_obstacles",
@@ -252,7 +252,7 @@ def top_situations(model: EnvironmentModel, max_k: int, mass: float = 0.95) -> l
 
 
 @dataclass(slots=True)
-class OccupancyMemory:
+class OccupancyMap:
     """Log-odds occupancy over the floor, fused from successive models, plus bump marks.
 
     Attributes:
@@ -421,7 +421,7 @@ class Gate:
 
 
 @dataclass(slots=True)
-class GateMemory:
+class GateHistory:
     """The gates seen so far.
 
     Attributes:

@@ -57,7 +57,7 @@ class InformationChoice:
 
     Attributes:
         kind: Look at the gate or approach it.
-        gate: Index of the gate in the gate memory.
+        gate: Index of the gate in the gate history.
         gain_m: Expected saving net of the option's cost, metres.
         waypoints: (n, 2) route to the approach point, world metres (robot first); ``None`` for
             a look.

@@ -2,7 +2,7 @@
 
 A :class:`ModelBasedAgent` composes four parts, each in a module of its own:
 
-* the planner (:mod:`agents.planning.planner`, :class:`PlannerCore`): the memory of what was seen
+* the planner (:mod:`agents.planning.planner`, :class:`PlannerCore`): the map of what was seen
   and bumped into, and the route (expected cost over situations for the ``planner``; the three
   policies differ only in how they treat an undecided critical region);
 * the looking rule (:mod:`agents.planning.looking`): whether to look at or approach an undecided
@@ -52,7 +52,7 @@ class ModelBasedAgent(Agent):
 
     Attributes:
         config: The parameters, with ``policy``.
-        core: The planner and memory of the episode (``None`` before :meth:`reset`).
+        core: The planner and occupancy map of the episode (``None`` before :meth:`reset`).
         decision: The decision being carried out (``None`` while backing off or before a plan).
     """
 
@@ -108,7 +108,7 @@ class ModelBasedAgent(Agent):
             bump = events.bump
             core.bump(pose, backwards=bump.backwards, step=self.steps, normal=bump.normal)
         if events.lost:
-            core.memory.forget(self.steps - cfg.keep_bumps_steps)
+            core.occupancy.forget(self.steps - cfg.keep_bumps_steps)
             core.forget_route()
         if events.stalled:
             core.bump(pose, backwards=False, step=self.steps)
@@ -141,11 +141,11 @@ class ModelBasedAgent(Agent):
         core = self.core
         self.decision = core.plan(pose)
         if self.decision.mode is Mode.NONE:
-            # No route at all: the goal is reachable, so the memory holds a false obstacle
+            # No route at all: the goal is reachable, so the map holds a false obstacle
             # (a bump mark across a gap, a phantom seen once). Keep only the recent bumps
             # (what the robot is touching now is real) and plan again, rather than drive
             # straight at the goal into what it already knows is there.
-            core.memory.forget(self.steps - self.config.relax_keep_steps)
+            core.occupancy.forget(self.steps - self.config.relax_keep_steps)
             core.forget_route()
             self.decision = core.plan(pose)
         self._since_plan = 0

@@ -1,6 +1,6 @@
 """The expected-cost planner (Miura and Shirai, ICRA-92, as the paper's section 5 proposes).
 
-:class:`PlannerCore` keeps the robot's memory (:mod:`agents.planning.gridmap`: occupancy fused from
+:class:`PlannerCore` keeps the robot's map (:mod:`agents.planning.gridmap`: occupancy fused from
 the successive models, bump marks, remembered critical regions called *gates*) and plans on the cost
 grid of :mod:`agents.planning.costmap`. The three policies (:class:`~agents.planning.config.Policy`)
 differ only in how they treat a gate whose passability ``p`` is undecided (``eps < p < 1 - eps``):
@@ -44,9 +44,9 @@ from agents.planning.config import NavigatorConfig, Policy
 from agents.planning.costmap import CostGrid, cost_from, cost_to_go, path_from
 from agents.planning.gridmap import (
     Gate,
-    GateMemory,
+    GateHistory,
     GridSpec,
-    OccupancyMemory,
+    OccupancyMap,
     observed_segments,
     rasterize_lines,
     rasterize_obstacles,
@@ -76,7 +76,7 @@ class Decision:
         mode: Follow the route, look at ``look_at`` (while following), approach, or nothing.
         waypoints: (n, 2) route to follow, world metres (robot first).
         look_at: (2,) point to pan the head to (``Mode.LOOK``), else ``None``.
-        gate: Index (in the gate memory) of the region looked at or approached, else ``None``.
+        gate: Index (in the gate history) of the region looked at or approached, else ``None``.
         route_gates: Gate indices crossed by the route, in order.
         expected_cost_m: Expected cost of the chosen route, metres.
         candidates: ``{situation index: expected cost}`` of the candidate routes (planner).
@@ -98,7 +98,7 @@ class SituationPlan:
     """One situation's graph and cost-to-go fields.
 
     Attributes:
-        grid: The cost grid of the situation (its obstacles, the memory, its gates).
+        grid: The cost grid of the situation (its obstacles, the map, its gates).
         weights: ``{(u, v): metres}`` of the gate edges (expected weights for the planner).
         value: (n_cells,) cost-to-go to ``target`` on ``weights``, metres.
         pred: (n_cells,) next cell towards ``target`` (-1: none).
@@ -157,8 +157,8 @@ class PlannerCore:
         self.limits = limits
         self.goal = np.asarray(goal, dtype=np.float64).reshape(2)
         self.spec = GridSpec.from_bounds(bounds, self.config.resolution_m)
-        self.memory = OccupancyMemory(self.spec, fused_range_m=self.config.fused_range_m)
-        self.gates = GateMemory()
+        self.occupancy = OccupancyMap(self.spec, fused_range_m=self.config.fused_range_m)
+        self.gates = GateHistory()
         self.looks_at: dict[int, int] = {}
         self.model: EnvironmentModel | None = None
         self.last_plans: list[SituationPlan] = []
@@ -169,16 +169,16 @@ class PlannerCore:
         """Robot width, metres."""
         return self.limits.robot_width_m
 
-    # ------------------------------------------------------------------ memory
+    # ------------------------------------------------------------------ occupancy map
     def observe(
         self, model: EnvironmentModel | None, step: int, fused: EnvironmentModel | None = None
     ) -> None:
         """Fuse the model of the latest observation (and the nearby obstacles of ``fused``, the
-        env's memory model, when given) into the memory."""
+        env's memory model, when given) into the occupancy map."""
         self.model = model
         if model is None:
             return
-        self.memory.update(model, max_situations=self.config.max_situations, fused=fused)
+        self.occupancy.update(model, max_situations=self.config.max_situations, fused=fused)
         self.gates.update(model, step)
 
     def bump(
@@ -210,7 +210,7 @@ class PlannerCore:
             direction = heading + (math.pi if backwards else 0.0)
             length = self.config.bump_guess_m
         front = np.array([x, y]) + (r + 0.05) * np.array([math.cos(direction), math.sin(direction)])
-        self.memory.add_bump(front, direction, length, step)
+        self.occupancy.add_bump(front, direction, length, step)
         return self.gates.mark_failed(np.array([x, y]), r + 0.35)
 
     # ------------------------------------------------------------------ gate treatment
@@ -226,7 +226,7 @@ class PlannerCore:
         return 1.0 if p >= 1.0 - eps else (0.0 if p <= eps else p)
 
     def _occupied(self, situation: Situation | None, pose_xy: FloatArray) -> NDArray[np.bool_]:
-        occ = self.memory.occupied()
+        occ = self.occupancy.occupied()
         if situation is not None:
             occ = occ | rasterize_obstacles(
                 self.spec,

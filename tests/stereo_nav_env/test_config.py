@@ -13,8 +13,8 @@ from stereo_nav_env.config import (
     ObservationConfig,
     ObservationMode,
     RewardConfig,
+    WorldConfig,
 )
-from stereo_nav_env.config import WorldConfig
 
 
 def test_flat_keywords_reach_the_sub_configuration_that_owns_them() -> None:

@@ -1,4 +1,4 @@
-"""The agents' memory (occupancy, bumps, gates) and cost grid, on synthetic models."""
+"""The agents' occupancy map (seen, bumps, gates) and cost grid, on synthetic models."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from agents.planning.costmap import CostGrid, cost_to_go, path_from
-from agents.planning.gridmap import GateMemory, GridSpec, OccupancyMemory
+from agents.planning.gridmap import GateHistory, GridSpec, OccupancyMap
 from tests.agents.synthetic import model_of, wall_segments
 
 
@@ -30,17 +30,17 @@ def test_grid_spec_cells_round_trip() -> None:
 
 def test_occupancy_fuses_hits_and_clears_what_it_sees_free() -> None:
     spec = GridSpec.from_bounds((0.0, 0.0, 6.0, 4.0), 0.1)
-    memory = OccupancyMemory(spec)
+    occupancy = OccupancyMap(spec)
     wall = model_of(wall_segments(2.5, [(1.5, 2.5)], 0.02), (0.5, 2.0, 0.0))
-    memory.update(wall)
-    assert _at(spec, memory.occupied(), 2.5, 2.0)
-    assert not _at(spec, memory.occupied(), 1.5, 2.0)
+    occupancy.update(wall)
+    assert _at(spec, occupancy.occupied(), 2.5, 2.0)
+    assert not _at(spec, occupancy.occupied(), 1.5, 2.0)
     empty = model_of([], (0.5, 2.0, 0.0))
     for _ in range(2):
-        memory.update(empty)
-        assert _at(spec, memory.occupied(), 2.5, 2.0)  # 1.0 - 0.35 - 0.35 > 0: still there
-    memory.update(empty)
-    assert not _at(spec, memory.occupied(), 2.5, 2.0)  # seen free three times
+        occupancy.update(empty)
+        assert _at(spec, occupancy.occupied(), 2.5, 2.0)  # 1.0 - 0.35 - 0.35 > 0: still there
+    occupancy.update(empty)
+    assert not _at(spec, occupancy.occupied(), 2.5, 2.0)  # seen free three times
 
 
 def test_the_fused_models_nearby_obstacles_enter_the_map_only_when_asked() -> None:
@@ -50,14 +50,14 @@ def test_the_fused_models_nearby_obstacles_enter_the_map_only_when_asked() -> No
     empty = model_of([], (0.5, 2.0, 0.0))
     fused = model_of(wall_segments(2.0, [(1.5, 2.5)], 0.02), (0.0, 2.0, 0.0))
     far = model_of(wall_segments(4.0, [(1.5, 2.5)], 0.02), (0.0, 2.0, 0.0))
-    on = OccupancyMemory(spec, fused_range_m=1.8)
+    on = OccupancyMap(spec, fused_range_m=1.8)
     on.update(empty, fused=fused)
     assert _at(spec, on.occupied(), 2.0, 2.0)  # 1.5 m from the viewpoint at x = 0.5
     on.update(empty, fused=far)  # 3.5 m away: left out
     assert not _at(spec, on.occupied(), 4.0, 2.0)
-    for memory in (OccupancyMemory(spec), OccupancyMemory(spec, fused_range_m=1.8)):
-        memory.update(empty, fused=fused if memory.fused_range_m == 0.0 else None)
-        assert not memory.occupied()[1:-1, 1:-1].any()
+    for occupancy in (OccupancyMap(spec), OccupancyMap(spec, fused_range_m=1.8)):
+        occupancy.update(empty, fused=fused if occupancy.fused_range_m == 0.0 else None)
+        assert not occupancy.occupied()[1:-1, 1:-1].any()
 
 
 def test_a_wrong_memory_model_is_refused_by_name() -> None:
@@ -70,20 +70,22 @@ def test_a_wrong_memory_model_is_refused_by_name() -> None:
 
 def test_bumps_are_forgotten_but_the_border_is_not() -> None:
     spec = GridSpec.from_bounds((0.0, 0.0, 4.0, 4.0), 0.1)
-    memory = OccupancyMemory(spec)
-    assert memory.occupied()[0, :].all() and memory.occupied()[:, -1].all()
-    memory.add_bump(np.array([2.0, 2.0]), 0.0, 1.0, step=10)  # a segment across +x
-    memory.add_bump(np.array([1.0, 1.0]), 0.0, 0.4, step=50)
-    assert _at(spec, memory.occupied(), 2.05, 2.45) and _at(spec, memory.occupied(), 2.05, 1.55)
-    memory.forget(before_step=30)
-    occ = memory.occupied()
+    occupancy = OccupancyMap(spec)
+    assert occupancy.occupied()[0, :].all() and occupancy.occupied()[:, -1].all()
+    occupancy.add_bump(np.array([2.0, 2.0]), 0.0, 1.0, step=10)  # a segment across +x
+    occupancy.add_bump(np.array([1.0, 1.0]), 0.0, 0.4, step=50)
+    assert _at(spec, occupancy.occupied(), 2.05, 2.45) and _at(
+        spec, occupancy.occupied(), 2.05, 1.55
+    )
+    occupancy.forget(before_step=30)
+    occ = occupancy.occupied()
     assert not _at(spec, occ, 2.05, 2.0) and _at(spec, occ, 1.05, 1.0) and occ[0, :].all()
 
 
-def test_gate_memory_matches_and_keeps_the_sharper_estimate() -> None:
+def test_gate_history_matches_and_keeps_the_sharper_estimate() -> None:
     segs_far = wall_segments(4.0, [(0.5, 1.74), (2.26, 3.5)], 0.1)
     segs_near = wall_segments(4.0, [(0.5, 1.74), (2.26, 3.5)], 0.03)
-    gates = GateMemory()
+    gates = GateHistory()
     gates.update(model_of(segs_far, (0.0, 2.0, 0.0)), step=0)
     (gate,) = gates.gates
     assert gate.midpoint == pytest.approx([4.0, 2.0]) and gate.seen_distance_m == pytest.approx(4)
@@ -100,13 +102,13 @@ def test_gate_memory_matches_and_keeps_the_sharper_estimate() -> None:
 def test_cost_grid_crosses_a_gap_only_by_its_gate_edge() -> None:
     spec = GridSpec.from_bounds((0.0, 0.0, 6.0, 4.0), 0.1)
     model = model_of(wall_segments(3.0, [(0.0, 1.74), (2.26, 4.0)], 0.08), (1.0, 2.0, 0.0))
-    memory = OccupancyMemory(spec)
-    memory.update(model)
-    gates = GateMemory()
+    occupancy = OccupancyMap(spec)
+    occupancy.update(model)
+    gates = GateHistory()
     gates.update(model, step=0)
     (gate,) = gates.gates
     assert 0.05 < gate.p_passable < 0.95
-    grid = CostGrid(spec, memory.occupied(), gates.gates, hard_m=0.2, soft_m=0.4)
+    grid = CostGrid(spec, occupancy.occupied(), gates.gates, hard_m=0.2, soft_m=0.4)
     (edge,) = grid.gate_edges
     assert edge.mid_xy == pytest.approx([3.0, 2.0], abs=0.02)
     start = int(spec.index_of(np.array([[1.0, 2.0]]))[0])

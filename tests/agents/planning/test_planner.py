@@ -35,7 +35,7 @@ def _core(policy: str, bounds, goal, **kw) -> PlannerCore:
         ControlLimits.from_config(EnvConfig()),
         NavigatorConfig(policy=policy, **kw),
     )
-    core.memory.insert_range_m = 8.0
+    core.occupancy.insert_range_m = 8.0
     return core
 
 
@@ -164,7 +164,7 @@ def test_a_bump_closes_the_gate_being_crossed(far_gap) -> None:
     assert core.bump((3.7, 2.5, 0.0, 0.0), backwards=False) == [0]
     assert core.gates.gates[0].failed and core.gates.gates[0].p_passable == 0.0
     row, col = core.spec.cell_of(np.array([[4.0, 2.5]]))[0]
-    assert core.memory.occupied()[row, col]
+    assert core.occupancy.occupied()[row, col]
     assert _crossing_y(core.plan((3.0, 2.5, 0.0, 0.0)).waypoints, 4.0) > 4.5  # round the wall
 
 
@@ -199,7 +199,7 @@ def test_a_bump_with_a_measured_normal_marks_the_face_not_across_the_heading() -
     """Sliding east along a wall below it (normal pointing south): the mark lies along the wall."""
     core = _core("planner", (0, 0, 7, 6), (6.0, 1.0))
     core.bump((3.0, 2.0, 0.0, 0.0), backwards=False, step=5, normal=np.array([0.0, -1.0]))
-    occupied = core.memory.occupied()
+    occupied = core.occupancy.occupied()
 
     def marked(x: float, y: float) -> bool:
         row, col = core.spec.cell_of(np.array([[x, y]]))[0]
@@ -215,9 +215,9 @@ def test_forgetting_old_bumps_reopens_a_map_they_closed(far_gap) -> None:
     core = _core("planner", (0, 0, 7, 6), (6.0, 2.5))
     core.observe(far, 0)
     for y in np.arange(0.2, 6.0, 0.5):
-        core.memory.add_bump(np.array([5.0, y]), 0.0, 0.6, step=1)
+        core.occupancy.add_bump(np.array([5.0, y]), 0.0, 0.6, step=1)
     assert core.plan((1.0, 2.5, 0.0, 0.0)).mode is Mode.NONE
-    core.memory.forget(100 - core.config.relax_keep_steps)
+    core.occupancy.forget(100 - core.config.relax_keep_steps)
     assert core.plan((1.0, 2.5, 0.0, 0.0)).mode is not Mode.NONE
 
 
