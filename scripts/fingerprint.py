@@ -3,11 +3,14 @@
     python scripts/fingerprint.py --json FILE [--case NAME ...] [--compare OLD.json]
 
 Each case makes one env (id and keywords below), resets it with seed 7, takes seeded random
-actions and hashes, step by step, the observation, the reward, the end flags, the info (its
-``model`` and ``memory_model`` apart, hashed by content) and every tenth rendered frame. The hash
+actions and hashes, step by step and each under its own kind, the observation with the reward and
+the end flags (``obs``), the info (``info``), the view's model (``model``), what comes of the
+fused memory (``memory``: ``memory_model`` and the ``memory_*`` diagnostics) and every tenth
+rendered frame (``frame``). The hash
 walks dataclasses, arrays, dicts and sequences by value and names classes without their module,
 so moving code between modules keeps it; any change of a value, a dtype or a shape changes it.
-``--compare`` prints the cases whose hashes differ from an earlier file's and exits 1 if any do.
+``--compare`` prints the cases whose hashes differ from an earlier file's, with the kinds that
+differ, and exits 1 if any do.
 """
 
 from __future__ import annotations
@@ -53,7 +56,7 @@ CASES: dict[str, tuple[str, dict[str, Any], int]] = {
 }
 """Name: (env id, ``gym.make`` keywords, steps)."""
 
-_MODELS = ("model", "memory_model")
+KINDS = ("obs", "info", "model", "memory", "frame")
 
 
 def _feed(x: Any, h: Any, depth: int = 0) -> None:
@@ -107,26 +110,40 @@ def digest(x: Any) -> str:
     return h.hexdigest()[:16]
 
 
+def _split_info(info: dict[str, Any]) -> dict[str, Any]:
+    """``info`` as the ``info``, ``model`` and ``memory`` kinds (see the module doc)."""
+    diagnostics = info.get("diagnostics", {})
+    rest = {k: v for k, v in info.items() if k not in ("model", "memory_model", "diagnostics")}
+    rest["diagnostics"] = {k: v for k, v in diagnostics.items() if not k.startswith("memory_")}
+    memory = {k: v for k, v in diagnostics.items() if k.startswith("memory_")}
+    return {"info": rest, "model": info.get("model"), "memory": (info.get("memory_model"), memory)}
+
+
 def run_case(name: str) -> dict[str, Any]:
-    """The per-step hashes of case ``name`` and their combined hash."""
+    """The per-step hashes of case ``name`` by kind, and each kind's combined hash."""
     env_id, kwargs, steps = CASES[name]
     env = gym.make(env_id, render_mode="rgb_array", **kwargs)
+    rows: dict[str, list[str]] = {kind: [] for kind in KINDS}
+
+    def add(obs: Any, info: dict[str, Any], *rest: Any) -> None:
+        rows["obs"].append(digest((obs, *rest)))
+        for kind, value in _split_info(info).items():
+            rows[kind].append(digest(value))
+
     obs, info = env.reset(seed=7)
     env.action_space.seed(11)
-    rows = [digest(obs), digest({k: v for k, v in info.items() if k not in _MODELS})]
-    rows += [digest(info.get(key)) for key in _MODELS] + [digest(env.render())]
+    add(obs, info)
+    rows["frame"].append(digest(env.render()))
     for t in range(steps):
         obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
-        rest = {k: v for k, v in info.items() if k not in _MODELS}
-        rows.append(digest((obs, reward, terminated, truncated, rest)))
-        rows += [digest(info.get(key)) for key in _MODELS]
+        add(obs, info, reward, terminated, truncated)
         if t % 10 == 0:
-            rows.append(digest(env.render()))
+            rows["frame"].append(digest(env.render()))
         if terminated or truncated:
             obs, info = env.reset()
-            rows.append(digest(obs))
+            add(obs, info)
     env.close()
-    return {"hash": digest(rows), "steps": rows}
+    return {"hash": digest(rows), "kinds": {k: digest(v) for k, v in rows.items()}, "steps": rows}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -146,9 +163,8 @@ def main(argv: list[str] | None = None) -> int:
     old = json.loads(args.compare.read_text())
     differ = [n for n in results if n in old and old[n]["hash"] != results[n]["hash"]]
     for name in differ:
-        pairs = zip(old[name]["steps"], results[name]["steps"], strict=False)
-        first = next((i for i, (a, b) in enumerate(pairs) if a != b), "the length")
-        print(f"DIFFERS: {name} (first at row {first})")
+        kinds = [k for k in KINDS if old[name]["kinds"][k] != results[name]["kinds"][k]]
+        print(f"DIFFERS: {name} in {', '.join(kinds)}")
     print("identical" if not differ else f"{len(differ)} case(s) differ")
     return 1 if differ else 0
 

@@ -49,7 +49,7 @@ def episode_diagnostics(
     seed: int, *, agent_name: str = "oracle", max_steps: int = 300, scenario: str = "office"
 ) -> list[dict[str, float]]:
     """Every step's ``info["diagnostics"]`` (the reset's first) of one episode of ``seed``."""
-    env = gym.make("StereoNav-v0", scenario=scenario, max_episode_steps=max_steps)
+    env = gym.make("StereoNav-v0", scenario=scenario, memory=True, max_episode_steps=max_steps)
     agent = make_agent(agent_name)
     try:
         obs, info = env.reset(seed=seed)

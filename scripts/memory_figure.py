@@ -41,7 +41,7 @@ def main(argv: list[str] | None = None) -> pathlib.Path:
     args = parser.parse_args(argv)
     if args.views < 1:
         raise ValueError(f"--views must be positive, got {args.views}")
-    env = gym.make("StereoNav-v0", scenario=args.scenario, diagnostics=False)
+    env = gym.make("StereoNav-v0", scenario=args.scenario, memory=True, diagnostics=False)
     agent = make_agent(args.agent)
     try:
         obs, info = env.reset(seed=args.seed)

@@ -357,8 +357,11 @@ class EnvConfig:
             model and measured rates, :mod:`stereo_nav_env.perception.surrogate`; the
             observation must then hold no images).
         memory: Whether every view is fused into the episode's memory and its model built
-            (``info["memory_model"]``, the ``memory_*`` diagnostics; the ``"memory"`` observation
-            modes need it). ``False`` saves that cost (``info["memory_model"]`` is ``None``).
+            (``info["memory_model"]``, the ``memory_*`` diagnostics; the ``"memory"`` and
+            ``"model_memory"`` observation modes need it). ``None`` (the default): on exactly when
+            the observation holds the memory, so the env pays for what it returns; ``True``: on
+            for a caller that reads ``info["memory_model"]``; ``False``: off
+            (``info["memory_model"]`` is ``None``). Resolved to a bool on construction.
         diagnostics: Whether ``info["diagnostics"]`` compares the model with ground truth.
         world: The robot and its physics (:class:`WorldConfig`).
         camera: The stereo camera and its pixel noise (:class:`CameraConfig`).
@@ -376,7 +379,7 @@ class EnvConfig:
     close_faces: bool = True
     ground_lines: bool = False
     perception: PerceptionName = PerceptionName.STEREO
-    memory: bool = True
+    memory: bool | None = None
     diagnostics: bool = True
     world: WorldConfig = field(default_factory=WorldConfig)
     camera: CameraConfig = field(default_factory=CameraConfig)
@@ -399,7 +402,6 @@ class EnvConfig:
         number(self.stuck_progress_m, "stuck_progress_m", low=0.0)
         boolean(self.close_faces, "close_faces")
         boolean(self.ground_lines, "ground_lines")
-        boolean(self.memory, "memory")
         boolean(self.diagnostics, "diagnostics")
         try:
             perception = PerceptionName(self.perception)
@@ -413,6 +415,9 @@ class EnvConfig:
         _instance(self.camera, "camera", CameraConfig)
         _instance(self.observation, "observation", ObservationConfig)
         _instance(self.rewards, "rewards", RewardConfig)
+        if self.memory is None:  # on exactly when the observation holds it
+            object.__setattr__(self, "memory", self.observation.has_memory)
+        boolean(self.memory, "memory")
         if self.observation.has_memory and not self.memory:
             raise ValueError(
                 f"observation_mode {self.observation.observation_mode.value!r} observes the "

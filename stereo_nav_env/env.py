@@ -1,12 +1,14 @@
-"""The Gymnasium environments ``StereoNav-v0`` and ``StereoNavDiscrete-v0``: a thin orchestrator.
+"""The Gymnasium environments ``StereoNav`` and ``StereoNavDiscrete``: a thin orchestrator.
 
-Each step: the physics advances and the head pans (:mod:`.world`), the stereo pair is rendered
-(:mod:`.render`) with pixel noise from ``np_random``, the modeling pipeline runs
-(:mod:`.perception`), the view and any contact are fused into the episode's memory and its
-model is built (:mod:`modeling.memory.fusion`), the observation is packed (:mod:`.observation`,
-:mod:`.raster`), the reward is computed (:mod:`.rewards`, :mod:`.geodesic`) and both models are
-compared with the truth (:mod:`.diagnostics`). ``render()`` draws with :mod:`.viewer`.
-Configuration: :mod:`.config`.
+Each step: the physics advances and the head pans (:mod:`stereo_nav_env.sim.world`), the
+perception turns the view into an environment model (:mod:`stereo_nav_env.perception`: the stereo
+renders the pair with pixel noise from ``np_random`` and runs the modeling pipeline, the surrogate
+imitates it), with ``memory`` on the view and any contact are fused into the episode's memory and
+its model is built (:mod:`stereo_nav_env.fusion`, :mod:`modeling.memory`), the observation is
+packed (:mod:`stereo_nav_env.observation`), the reward is computed (:mod:`stereo_nav_env.rewards`,
+:mod:`stereo_nav_env.sim.geodesic`) and the models are compared with the truth
+(:mod:`stereo_nav_env.diagnostics`). ``render()`` draws with
+:mod:`stereo_nav_env.rendering.viewer`. Configuration: :mod:`stereo_nav_env.config`.
 """
 
 from __future__ import annotations
@@ -73,7 +75,8 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     the paper's pipeline (``close_faces``, on by default): a plain face's bottom edge joining the
     lower ends of two vertical edges closes the "gap" between them (:mod:`modeling.stereo.faces`).
     Gaps close to the robot's width make passability genuinely uncertain, and looking again from
-    elsewhere resolves it. Every view is also fused into the episode's memory
+    elsewhere resolves it. With ``memory`` on (when the observation holds the memory, or asked
+    for), every view is also fused into the episode's memory
     (:class:`~modeling.memory.fusion.ModelMemory`, paper section 6), whose model is
     ``info["memory_model"]``.
 
@@ -180,15 +183,16 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     the default) without ``stuck_progress_m`` of geodesic progress.
 
     ## Info
-    ``model`` (:class:`~modeling.model.build.EnvironmentModel` of the latest pair, compared by
-    content), ``memory_model`` (the fused model of every view of the episode so far, and its
-    contacts: :func:`modeling.memory.fusion.build_memory_model` of ``env.unwrapped.memory``,
-    compared by content), ``diagnostics`` (floats comparing them with the truth: ``nees_mean``,
-    ``coverage_95``, ``passability_brier``, ``p_true_candidate`` and their counts, and the same of
-    the fused model as ``memory_<name>``; a figure with nothing to measure in the view is left out;
-    see :mod:`stereo_nav_env.diagnostics`; empty with ``diagnostics=False``), ``reward_components``
-    (after a step), ``is_success``, ``collision``, ``scene`` (its name), ``distance_to_goal_m``
-    (straight) and ``geodesic_distance_m``.
+    ``model`` (:class:`~modeling.model.records.EnvironmentModel` of the latest pair, compared by
+    content), ``memory_model`` (with ``memory`` on: the fused model of every view of the episode
+    so far, and its contacts: :func:`modeling.memory.fusion.build_memory_model` of
+    ``env.unwrapped.memory``, compared by content; else ``None``), ``diagnostics`` (floats
+    comparing them with the truth: ``nees_mean``, ``coverage_95``, ``passability_brier``,
+    ``p_true_candidate`` and their counts, and the same of the fused model as ``memory_<name>``; a
+    figure with nothing to measure in the view is left out; see :mod:`stereo_nav_env.diagnostics`;
+    empty with ``diagnostics=False``), ``reward_components`` (after a step), ``is_success``,
+    ``collision``, ``scene`` (its name), ``distance_to_goal_m`` (straight) and
+    ``geodesic_distance_m``.
 
     ## Arguments
     ``gym.make("StereoNav-v0", render_mode=None, **kwargs)``: ``render_mode`` is ``None`` or
@@ -211,6 +215,11 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     * v1: the episode rules of issue 18 (``rules="v1"``, :data:`~stereo_nav_env.config.RULES`):
       collisions do not end an episode and cost 0.1 per contact step; optional truncation when
       stuck; the ``"policy"`` observation by default. Actions as v0.
+    * Both versions, issue 40: ``memory`` defaults to ``None``, on exactly when the observation
+      holds the memory (``"memory"``, ``"model_memory"``); it was on in every v0 env before,
+      fusing every view into a memory no default consumer read. Pass ``memory=True`` for
+      ``info["memory_model"]`` and the ``memory_*`` diagnostics. Observations, rewards and the
+      model are unchanged.
     """
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 10}  # noqa: RUF012

@@ -119,7 +119,7 @@ def test_gymnasium_and_sb3_checkers_pass_in_the_memory_modes(env_id: str, mode: 
 
 # ---------------------------------------------------------------------------- the env
 def test_info_holds_the_memory_model_every_step_with_its_stages_and_diagnostics() -> None:
-    env = gym.make("StereoNav-v0", scenario="two_gaps", **SMALL)
+    env = gym.make("StereoNav-v0", scenario="two_gaps", memory=True, **SMALL)
     base = _u(env)
     try:
         _, info = env.reset(seed=0)
@@ -200,7 +200,9 @@ def test_a_contact_enters_the_memory_as_an_obstacle(tmp_path: pathlib.Path) -> N
     # a box 0.45 m ahead: its floor outline lies in the blind band, no view sees it
     box = {"kind": "box", "rect": {"center": [1.8, 3.0], "size": [0.2, 1.0], "yaw_deg": 0}}
     path = _map(tmp_path, "bump", [box])
-    env = gym.make("StereoNav-v0", scenario=path, terminate_on_collision=False, **SMALL)
+    env = gym.make(
+        "StereoNav-v0", scenario=path, terminate_on_collision=False, memory=True, **SMALL
+    )
     base = _u(env)
     try:
         env.reset(seed=0)
@@ -242,7 +244,7 @@ def test_a_doubtful_gaps_width_std_narrows_as_the_robot_approaches(tmp_path: pat
         {"kind": "box", "rect": {"center": [6.0, 3.55], "size": [0.6, 0.6], "yaw_deg": 0}},
     ]
     path = _map(tmp_path, "gap", boxes, start=[1.5, 3.0, 0.0])
-    env = gym.make("StereoNav-v0", scenario=path, **SMALL)
+    env = gym.make("StereoNav-v0", scenario=path, memory=True, **SMALL)
     try:
         env.reset(seed=0)
         first: float | None = None
@@ -263,6 +265,7 @@ def test_the_memory_stays_bounded_over_500_steps() -> None:
         "StereoNav-v0",
         scenario="two_gaps",
         terminate_on_collision=False,
+        memory=True,
         diagnostics=False,
         max_episode_steps=600,
         **SMALL,
