@@ -34,7 +34,12 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from modeling.memory._kernels.association import fuse_pairs, gate_pairs
+from modeling.memory._kernels.association import (
+    FusedPairs,
+    GaussianSegments,
+    fuse_pairs,
+    gate_pairs,
+)
 from modeling.observation import FloorSegment
 from modeling.types import FloatArray
 
@@ -380,16 +385,14 @@ def fused_segments(
     if rows.shape[0] == 0:
         return [], stack_of([])
     mean, P, top = fuse_pairs(
-        mem.ends,
-        mem.cov,
-        mem.heights,
-        new.ends,
-        new.cov,
-        new.heights,
-        rows,
-        cols,
-        pairs.swapped,
-        np.ones(rows.shape[0]) if weight is None else np.asarray(weight, dtype=np.float64),
+        GaussianSegments(mem.ends, mem.cov, mem.heights),
+        GaussianSegments(new.ends, new.cov, new.heights),
+        FusedPairs(
+            rows,
+            cols,
+            pairs.swapped,
+            np.ones(rows.shape[0]) if weight is None else np.asarray(weight, dtype=np.float64),
+        ),
     )
     P = floored_covariances(P, min_var)
     src = new.source[rows]

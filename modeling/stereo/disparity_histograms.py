@@ -23,7 +23,6 @@ test holds them together).
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,6 +32,7 @@ from modeling.stereo._kernels.match import (
     Decision,
     HistogramInputs,
     PeakRule,
+    Splat,
     histogram_rows,
 )
 from modeling.types import FloatArray, IntArray
@@ -44,16 +44,6 @@ __all__ = [
     "histogram_inputs_reference",
     "region_histograms",
 ]
-
-
-class Splat(NamedTuple):
-    """How a candidate's vote is spread over the histogram bins."""
-
-    opposite_weight: float  # factor on an opposite-polarity candidate's weight
-    sigma_bins: float  # the Gaussian's standard deviation, bins
-    radius: int  # the nearest bin and ``radius`` bins on each side
-    bin_px: float  # bin width, px
-    norm: float  # ``sqrt(2 pi) sigma_bins``, the Gaussian's normalisation
 
 
 def histogram_inputs(cand: Candidates, slope_l: FloatArray, splat: Splat) -> HistogramInputs:
@@ -73,18 +63,7 @@ def histogram_inputs(cand: Candidates, slope_l: FloatArray, splat: Splat) -> His
         Mid disparities, weights, splat factors, bin 0's disparity, the bins, the Gaussian's
         exponents there, each candidate's histogram row and each row's left segment.
     """
-    return histogram_rows(
-        cand.li,
-        cand.disparity,
-        cand.overlap,
-        cand.opposite,
-        slope_l,
-        splat.opposite_weight,
-        splat.sigma_bins,
-        splat.radius,
-        splat.bin_px,
-        splat.norm,
-    )
+    return histogram_rows(cand, slope_l, splat)
 
 
 def histogram_inputs_reference(

@@ -8,7 +8,8 @@ aligned, the weighted product of Gaussians of
 :func:`modeling.memory.association.gaussian_product`, the larger heights) as one pass over the
 pairs. Both keep the reference's arithmetic in the same order, so the results are equal, not
 only close. A fuse gates five stacks against each other and fuses two or three; in NumPy each
-costs a dozen small array operations (about 0.1 ms), here a few microseconds.
+costs a dozen small array operations (about 0.1 ms), here a few microseconds. :func:`fuse_pairs`
+takes the small named tuples below.
 
 Compiled with Numba on first use (:mod:`modeling.jit`); importing this module does not import
 Numba. ``tests/modeling/memory/test_compiled_association.py`` compares them with the references on
@@ -16,6 +17,8 @@ seeded random inputs.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 
@@ -100,22 +103,34 @@ def _inverse2(a: float, b: float, d: float) -> tuple[float, float, float]:
     return d / det, -b / det, a / det
 
 
+class GaussianSegments(NamedTuple):
+    """Uncertain segments as :func:`fuse_pairs` reads them, ``n`` rows (the arrays of a
+    :class:`~modeling.memory.association.SegmentStack` but its source)."""
+
+    ends: np.ndarray  # (n, 2, 2) endpoint means, world frame, metres
+    cov: np.ndarray  # (n, 2, 2, 2) endpoint covariances, m^2
+    heights: np.ndarray  # (n, 2) endpoint heights, metres
+
+
+class FusedPairs(NamedTuple):
+    """The ``k`` pairs to fuse (:func:`fuse_pairs`)."""
+
+    rows: np.ndarray  # (k,) int64, index of the new segment
+    cols: np.ndarray  # (k,) int64, index of the remembered segment
+    swapped: np.ndarray  # (k,) bool, the new segment's endpoints in reverse
+    weight: np.ndarray  # (k,) factor on the new segment's information
+
+
 @compiled_on_first_call
 def fuse_pairs(
-    mem_ends: np.ndarray,
-    mem_cov: np.ndarray,
-    mem_heights: np.ndarray,
-    new_ends: np.ndarray,
-    new_cov: np.ndarray,
-    new_heights: np.ndarray,
-    rows: np.ndarray,
-    cols: np.ndarray,
-    swapped: np.ndarray,
-    weight: np.ndarray,
+    mem: GaussianSegments, new: GaussianSegments, pairs: FusedPairs
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(mean, cov, top)`` (k, 2, 2), (k, 2, 2, 2), (k, 2) of the remembered segments ``cols``
-    fused with the new ones ``rows`` (endpoints in reverse where ``swapped``), the new one's
-    information times ``weight`` (k,)."""
+    """``(mean, cov, top)`` (k, 2, 2), (k, 2, 2, 2), (k, 2) of the remembered segments
+    ``pairs.cols`` of ``mem`` fused with the new ones ``pairs.rows`` of ``new`` (endpoints in
+    reverse where ``pairs.swapped``), the new one's information times ``pairs.weight`` (k,)."""
+    mem_ends, mem_cov, mem_heights = mem
+    new_ends, new_cov, new_heights = new
+    rows, cols, swapped, weight = pairs
     k = rows.shape[0]
     mean = np.empty((k, 2, 2))
     cov = np.empty((k, 2, 2, 2))

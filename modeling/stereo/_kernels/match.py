@@ -62,6 +62,16 @@ class Candidates(NamedTuple):
     opposite: np.ndarray  # (k,) opposite polarity
 
 
+class Splat(NamedTuple):
+    """How a candidate's vote is spread over the histogram bins (:func:`histogram_rows`)."""
+
+    opposite_weight: float  # factor on an opposite-polarity candidate's weight
+    sigma_bins: float  # the Gaussian's standard deviation, bins
+    radius: int  # the nearest bin and ``radius`` bins on each side
+    bin_px: float  # bin width, px
+    norm: float  # ``sqrt(2 pi) sigma_bins``, the Gaussian's normalisation
+
+
 class HistogramInputs(NamedTuple):
     """What the local histograms are made of (:func:`histogram_inputs`)."""
 
@@ -181,36 +191,25 @@ def candidate_grid(left: SegmentColumns, right: SegmentColumns, c: Constraints) 
 
 
 @compiled_on_first_call
-def histogram_rows(
-    li: np.ndarray,
-    disparity: np.ndarray,
-    overlap: np.ndarray,
-    opposite: np.ndarray,
-    slope_l: np.ndarray,
-    opposite_weight: float,
-    sigma_bins: float,
-    radius: int,
-    bin_px: float,
-    norm: float,
-) -> HistogramInputs:
+def histogram_rows(cand: Candidates, slope_l: np.ndarray, splat: Splat) -> HistogramInputs:
     """What the local histograms are made of, for k >= 1 candidates sorted by left segment.
 
     Args:
-        li: (k,) left segment of each candidate (sorted).
-        disparity: (k, 2) disparity at the ends of each overlap, px.
-        overlap: (k,) overlap, rows.
-        opposite: (k,) opposite polarity.
+        cand: The candidates (sorted by left segment); their left segments ``li``, the
+            disparities at the ends of each overlap (px), the overlaps (rows) and polarities are
+            read.
         slope_l: (nL,) the left segments' slopes du/dv.
-        opposite_weight: Factor on an opposite-polarity candidate's weight.
-        sigma_bins: The Gaussian's standard deviation, bins.
-        radius: The nearest bin and ``radius`` bins on each side.
-        bin_px: Bin width, px.
-        norm: The Gaussian's normalisation.
+        splat: How each candidate's vote is spread: the opposite-polarity factor, the Gaussian's
+            standard deviation (bins), its radius (bins), the bin width (px) and the
+            normalisation.
 
     Returns:
         The histogram inputs. Reference:
         :func:`modeling.stereo.disparity_histograms.histogram_inputs_reference` (section 3.1).
     """
+    li, disparity, overlap, opposite = cand.li, cand.disparity, cand.overlap, cand.opposite
+    opposite_weight, sigma_bins, radius = splat.opposite_weight, splat.sigma_bins, splat.radius
+    bin_px, norm = splat.bin_px, splat.norm
     k = li.shape[0]
     width = 2 * radius + 1
     d_mid = np.empty(k)

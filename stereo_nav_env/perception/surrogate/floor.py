@@ -19,6 +19,7 @@ import numpy as np
 from modeling.stereo.rig import HeadPose, StereoRig
 from modeling.types import BoolArray, FloatArray, IntArray
 from stereo_nav_env.perception.surrogate._kernels.visibility import (
+    FloorSides,
     floor_hidden_loop,
     floor_lines_loop,
 )
@@ -29,7 +30,9 @@ from stereo_nav_env.perception.surrogate.visibility import (
     camera_xz,
     head_array,
     in_both_images,
+    parts_of,
     sight_blocked,
+    sight_of,
 )
 
 __all__ = [
@@ -57,15 +60,7 @@ def floor_hidden(edges: SceneEdges, head: HeadPose, points: FloatArray) -> BoolA
     the points and parts (:func:`floor_hidden_reference` is the same in NumPy, and a test
     holds them equal)."""
     return floor_hidden_loop(
-        head.x_m,
-        head.y_m,
-        head.height_m,
-        np.ascontiguousarray(points, dtype=np.float64),
-        edges.side_start,
-        edges.side_normal,
-        edges.z_min,
-        edges.z_max,
-        PULL_BACK_M,
+        sight_of(head), parts_of(edges), np.ascontiguousarray(points, dtype=np.float64)
     )
 
 
@@ -144,15 +139,11 @@ def visible_floor_lines(
     out: FloatArray = floor_lines_loop(
         head_array(head),
         camera_array(rig),
-        edges.line_ends,
-        edges.line_normal,
+        FloorSides(edges.line_ends, edges.line_normal),
         np.ascontiguousarray(edges.corner_xy[corners]),
         int(samples),
         float(max_range_m),
-        edges.side_start,
-        edges.side_normal,
-        edges.z_min,
-        edges.z_max,
+        parts_of(edges),
         PULL_BACK_M,
     )
     return out

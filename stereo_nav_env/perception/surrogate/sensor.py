@@ -63,6 +63,12 @@ from modeling.stereo.triangulation import triangulate_to_floor
 from modeling.types import FloatArray, IntArray
 from stereo_nav_env.perception.base import ComparableModel, Perception, PerceptionName, Stopwatch
 from stereo_nav_env.perception.surrogate._kernels.segments import (
+    Detection,
+    FalseMatchDraws,
+    FalseMatchRates,
+    FoundEdges,
+    PieceSampling,
+    SeenEdges,
     image_fits_loop,
     piece_fits,
     segment_pieces_loop,
@@ -202,29 +208,24 @@ def surrogate_segments(
     (cx, cy), c, s = rig.principal_point_px, math.cos(head.heading_rad), math.sin(head.heading_rad)
     found, outcome, left_corners, *pieces = segment_pieces_loop(
         pick,
-        vis.corner,
-        vis.crease,
-        vis.u,
-        vis.Z,
-        vis.v_top,
-        vis.v_bottom,
-        edges.corner_kind,
-        rates._inner_bins,
-        rates._detection_table,
+        SeenEdges(vis.corner, vis.crease, vis.u, vis.Z, vis.v_top, vis.v_bottom),
+        Detection(edges.corner_kind, rates._inner_bins, rates._detection_table),
         np.array([rig.focal_px, cx, cy, rig.fb, rig.baseline_m]),
         np.array([head.x_m, head.y_m, c, s, head.height_m]),
-        np.array(
-            [
-                -float(opts.side_px),
-                float(opts.side_px),
-                -opts.near_px,
-                opts.near_px,
-                2.0 * opts.min_gradient,
-                opts.min_length_px,
-                rates.end_loss_px,
-            ]
+        PieceSampling(
+            np.array(
+                [
+                    -float(opts.side_px),
+                    float(opts.side_px),
+                    -opts.near_px,
+                    opts.near_px,
+                    2.0 * opts.min_gradient,
+                    opts.min_length_px,
+                    rates.end_loss_px,
+                ]
+            ),
+            ROWS,
         ),
-        ROWS,
         surface_arrays(edges),
     )
     n = found.size
@@ -232,6 +233,9 @@ def surrogate_segments(
     wrong_index = rng.integers(len(rates.false_error_px), size=n)
     sign_pick = rng.random(n)
     u, Z = vis.u[found], vis.Z[found]
+    found_edges = FoundEdges(u, Z, outcome)
+    false_draws = FalseMatchDraws(false_pick, wrong_index, sign_pick)
+    false_rates = FalseMatchRates(rates._inner_bins, rates._false_rate, rates._false_error)
     floor_lines = visible_floor_lines(edges, head, rig, left_corners, max_range_m=_FACE_RANGE_M)
     d = floor_lines[:, 1] - floor_lines[:, 0]
     length = np.hypot(d[:, 0], d[:, 1])
@@ -243,27 +247,12 @@ def surrogate_segments(
     for k, lines in enumerate(
         (floor_lines[flat & (length >= opts.min_length_px)], np.zeros((0, 2, 2)))
     ):
-        edge, top, bottom, greys, polarity = pieces[k]
-        draw = rng.standard_normal((3, edge.size))
+        image = pieces[k]
+        draw = rng.standard_normal((3, image.edge.size))
         *fit, contrast = image_fits_loop(
-            edge,
-            top,
-            bottom,
-            greys,
-            draw,
-            u,
-            Z,
-            outcome,
-            false_pick,
-            wrong_index,
-            sign_pick,
-            rates._inner_bins,
-            rates._false_rate,
-            rates._false_error,
-            scalars,
-            k == 1,
+            image, draw, found_edges, false_draws, false_rates, scalars, k == 1
         )
-        out.append(_image_segments(rig, fit, polarity, contrast, greys, lines))
+        out.append(_image_segments(rig, fit, image.polarity, contrast, image.greys, lines))
     return out[0], out[1]
 
 

@@ -36,6 +36,8 @@ from numpy.typing import NDArray
 from modeling.stereo.rig import HeadPose, StereoRig
 from modeling.types import BoolArray, FloatArray, IntArray
 from stereo_nav_env.perception.surrogate._kernels.visibility import (
+    Parts,
+    Sight,
     edge_candidates_loop,
     seen_runs_loop,
 )
@@ -59,9 +61,11 @@ __all__ = [
     "clip_to_parts",
     "head_array",
     "in_both_images",
+    "parts_of",
     "seen_runs",
     "seen_runs_reference",
     "sight_blocked",
+    "sight_of",
     "visible_edges",
     "visible_edges_reference",
 ]
@@ -351,7 +355,18 @@ def visible_edges_reference(
     low = np.maximum(edges.corner_z[cand, 0], z_img_low)
     high = np.minimum(edges.corner_z[cand, 1], z_img_high)
     crease = facing[cand].all(axis=1)
-    return _seen(edges, head, rig, cand, X, Z, low, high, crease, min_length_px)
+    return _seen(
+        edges,
+        head,
+        rig,
+        cand,
+        X=X,
+        Z=Z,
+        low=low,
+        high=high,
+        crease=crease,
+        min_length_px=min_length_px,
+    )
 
 
 def _seen(
@@ -359,6 +374,7 @@ def _seen(
     head: HeadPose,
     rig: StereoRig,
     cand: IntArray,
+    *,
     X: FloatArray,
     Z: FloatArray,
     low: FloatArray,
@@ -403,6 +419,17 @@ def camera_array(rig: StereoRig) -> FloatArray:
     return np.array(values, dtype=np.float64)
 
 
+def sight_of(head: HeadPose) -> Sight:
+    """Where the sight lines from ``head`` start and stop (``PULL_BACK_M``), for the compiled
+    loops."""
+    return Sight(head.x_m, head.y_m, head.height_m, PULL_BACK_M)
+
+
+def parts_of(edges: SceneEdges) -> Parts:
+    """The parts of ``edges`` that hide (footprints and heights), for the compiled loops."""
+    return Parts(edges.side_start, edges.side_normal, edges.z_min, edges.z_max)
+
+
 def visible_edges(
     edges: SceneEdges, head: HeadPose, rig: StereoRig, *, trim_px: float, min_length_px: float
 ) -> VisibleEdges:
@@ -416,7 +443,18 @@ def visible_edges(
         edges.corner_z,
         float(trim_px),
     )
-    return _seen(edges, head, rig, cand, X, Z, low, high, crease, min_length_px)
+    return _seen(
+        edges,
+        head,
+        rig,
+        cand,
+        X=X,
+        Z=Z,
+        low=low,
+        high=high,
+        crease=crease,
+        min_length_px=min_length_px,
+    )
 
 
 def seen_runs_reference(
@@ -465,18 +503,12 @@ def seen_runs(
     compiled pass over the edges and parts (:func:`seen_runs_reference` is the same in NumPy,
     and a test holds them equal)."""
     return seen_runs_loop(
-        head.x_m,
-        head.y_m,
-        head.height_m,
+        sight_of(head),
+        parts_of(edges),
         np.ascontiguousarray(edges.corner_xy[cand]),
         edges.corner_part[cand],
         np.asarray(low, dtype=np.float64),
         np.asarray(high, dtype=np.float64),
-        edges.side_start,
-        edges.side_normal,
-        edges.z_min,
-        edges.z_max,
-        PULL_BACK_M,
     )
 
 

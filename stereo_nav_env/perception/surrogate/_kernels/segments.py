@@ -7,11 +7,14 @@ Each loop has a NumPy reference that a test holds it equal to, bit for bit:
 (``edge_pieces_reference``), :func:`piece_fits` (``piece_fits_reference``), and the two loops
 :func:`segment_pieces_loop` and :func:`image_fits_loop` that make, between the random draws,
 what ``surrogate_segments_reference`` makes with NumPy (``surrogate_segments`` is built of
-them). They keep the reference's arithmetic, in its order. Frames and units: world metres,
-floor plane x-y, z up; image pixels (u right, v down); grey levels 0-255.
+them). They keep the reference's arithmetic, in its order; the last two take the small named
+tuples below. Frames and units: world metres, floor plane x-y, z up; image pixels (u right, v
+down); grey levels 0-255.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,6 +23,13 @@ from modeling.jit import compiled_helper, compiled_on_first_call
 from modeling.types import FloatArray, Int8Array, IntArray
 
 __all__ = [
+    "Detection",
+    "FalseMatchDraws",
+    "FalseMatchRates",
+    "FoundEdges",
+    "PieceSampling",
+    "Pieces",
+    "SeenEdges",
     "first_surfaces_loop",
     "image_fits_loop",
     "piece_fits",
@@ -43,6 +53,68 @@ Surfaces = tuple[
 """The scene's surfaces as the loops read them (``surface_arrays`` of the photometry): the far
 depth, the parts' side starts, normals and greys, top and bottom greys, bottom and top heights,
 the floor's box and grey, the background's grey."""
+
+
+class SeenEdges(NamedTuple):
+    """The seen edges (``VisibleEdges``) as :func:`segment_pieces_loop` reads them, ``n`` rows."""
+
+    corner: IntArray  # (n,) index into ``SceneEdges.corner_xy``
+    crease: NDArray[np.bool_]  # (n,) whether both sides meeting there face the head
+    u: FloatArray  # (n,) column in the left image, px
+    Z: FloatArray  # (n,) depth, metres
+    v_top: FloatArray  # (n,) first row of the seen run, px
+    v_bottom: FloatArray  # (n,) last row of the seen run, px
+
+
+class Detection(NamedTuple):
+    """What an edge's detection outcome is drawn from: its class (its obstacle's kind, outline or
+    crease) and its depth bin pick a row of the measured rates (``SurrogateRates``)."""
+
+    corner_kind: IntArray  # (C,) ``SceneEdges.corner_kind``
+    inner_bins: FloatArray  # (k - 1,) the rates' inner depth-bin edges, metres
+    table: FloatArray  # (classes, k, 3) both images, left only, right only
+
+
+class PieceSampling(NamedTuple):
+    """How the grey levels beside each edge are sampled and its pieces cut."""
+
+    samples: FloatArray  # (7,) -side_px, side_px, -near_px, near_px (px), min_contrast (grey
+    # levels), min_length_px, end_loss_px (px)
+    n_rows: int  # rows sampled per edge
+
+
+class Pieces(NamedTuple):
+    """One image's pieces (the arrays of the photometry's ``EdgePieces``), ``m`` rows."""
+
+    edge: IntArray  # (m,) the found edge each belongs to
+    v_top: FloatArray  # (m,) first row, px
+    v_bottom: FloatArray  # (m,) last row, px
+    greys: FloatArray  # (4, m) far left, far right, near left, near right grey levels
+    polarity: Int8Array  # (m,) +1 where brighter on the right of the edge, -1 otherwise
+
+
+class FoundEdges(NamedTuple):
+    """The edges found in at least one image (:func:`segment_pieces_loop`), ``n`` rows."""
+
+    u: FloatArray  # (n,) column in the left image, px
+    Z: FloatArray  # (n,) depth, metres
+    outcome: IntArray  # (n,) 0 both images, 1 the left only, 2 the right only
+
+
+class FalseMatchDraws(NamedTuple):
+    """The draws that make a found edge's right segment a false match, ``n`` rows."""
+
+    pick: FloatArray  # (n,) uniform, against the false-match rate at the edge's depth
+    wrong_index: IntArray  # (n,) which measured error it takes
+    sign_pick: FloatArray  # (n,) uniform, the error's sign (negative below 0.5)
+
+
+class FalseMatchRates(NamedTuple):
+    """The measured false matches (``SurrogateRates``), ``k`` depth bins."""
+
+    inner_bins: FloatArray  # (k - 1,) inner depth-bin edges, metres
+    rate: FloatArray  # (k,) false-match rate per depth bin
+    error: FloatArray  # (e,) absolute disparity errors of the measured false matches, px
 
 
 @compiled_helper
@@ -261,55 +333,39 @@ def depth_bin(inner_bins: FloatArray, z: float) -> int:
 @compiled_on_first_call
 def segment_pieces_loop(
     pick: FloatArray,
-    corner: IntArray,
-    crease: NDArray[np.bool_],
-    u: FloatArray,
-    Z: FloatArray,
-    v_top: FloatArray,
-    v_bottom: FloatArray,
-    corner_kind: IntArray,
-    inner_bins: FloatArray,
-    detection: FloatArray,
+    seen: SeenEdges,
+    detection: Detection,
     camera: FloatArray,
     head: FloatArray,
-    samples: FloatArray,
-    n_rows: int,
+    sampling: PieceSampling,
     surfaces: Surfaces,
-) -> tuple[
-    IntArray,
-    IntArray,
-    IntArray,
-    tuple[IntArray, FloatArray, FloatArray, FloatArray, Int8Array],
-    tuple[IntArray, FloatArray, FloatArray, FloatArray, Int8Array],
-]:
+) -> tuple[IntArray, IntArray, IntArray, Pieces, Pieces]:
     """The detection outcome of each seen edge (``pick`` against its class's cumulative rates at
     its depth: 0 both images, 1 the left only, 2 the right only, 3 neither), then the pieces of
     the edges found, in the images that segment them (their grey levels as ``edge_greys``, cut
     as ``edge_pieces``).
 
     Args:
-        pick: (n,) the uniform draws. ``corner``, ``crease``, ``u``, ``Z``, ``v_top``,
-            ``v_bottom``: (n,) the seen edges (``VisibleEdges``).
-        corner_kind, inner_bins, detection: ``SceneEdges.corner_kind`` and the rates' inner bin
-            edges and (classes, k, 3) table.
+        pick: (n,) the uniform draws.
+        seen: The ``n`` seen edges.
+        detection: The scene's corner kinds and the rates' depth bins and table.
         camera: ``(f, cx, cy, f b, baseline)``. ``head``: ``(x, y, cos, sin, height)``.
-        samples: ``(-side_px, side_px, -near_px, near_px, min_contrast, min_length_px,
-            end_loss_px)``.
-        n_rows: Rows sampled per edge. ``surfaces``: the scene's parts and floor (:data:`Surfaces`).
+        sampling: The samples' offsets and the pieces' limits, the rows sampled per edge.
+        surfaces: The scene's parts and floor (:data:`Surfaces`).
 
     Returns:
         ``(found, outcome, left_corners, left, right)``: the edges found (indices into the seen
         ones) and their outcomes, the corners of those the left image segments, and each
-        image's pieces ``(edge, v_top, v_bottom, greys, polarity)`` (``edge`` indexes
-        ``found``).
+        image's pieces (``edge`` indexes ``found``).
     """
+    corner, crease, u, Z, v_top, v_bottom = seen
+    corner_kind, inner_bins, table = detection
+    samples, n_rows = sampling
     n_seen = pick.shape[0]
     outcome_all = np.empty(n_seen, np.int64)
     n = 0
     for e in range(n_seen):
-        rates = detection[
-            2 * corner_kind[corner[e]] + np.int64(crease[e]), depth_bin(inner_bins, Z[e])
-        ]
+        rates = table[2 * corner_kind[corner[e]] + np.int64(crease[e]), depth_bin(inner_bins, Z[e])]
         p0 = rates[0]
         p1 = p0 + rates[1]
         p2 = p1 + rates[2]
@@ -378,7 +434,7 @@ def _kept_runs(
     samples: FloatArray,
     outcome: IntArray,
     other: int,
-) -> tuple[IntArray, FloatArray, FloatArray, FloatArray, Int8Array]:
+) -> Pieces:
     """The runs of one image's edges (:func:`runs_of`) but those of edges whose outcome is
     ``other`` (segmented by the other image only); greys rows contiguous."""
     edge, t, b, means, polarity = runs_of(
@@ -397,25 +453,16 @@ def _kept_runs(
     for k in range(4):
         for j in range(m):
             kept[k, j] = means[k, keep[j]]
-    return edge[keep], t[keep], b[keep], kept, polarity[keep]
+    return Pieces(edge[keep], t[keep], b[keep], kept, polarity[keep])
 
 
 @compiled_on_first_call
 def image_fits_loop(
-    edge: IntArray,
-    top: FloatArray,
-    bottom: FloatArray,
-    greys: FloatArray,
+    pieces: Pieces,
     draw: FloatArray,
-    u: FloatArray,
-    Z: FloatArray,
-    outcome: IntArray,
-    false_pick: FloatArray,
-    wrong_index: IntArray,
-    sign_pick: FloatArray,
-    inner_bins: FloatArray,
-    false_rate: FloatArray,
-    false_error: FloatArray,
+    found: FoundEdges,
+    false_draws: FalseMatchDraws,
+    false_rates: FalseMatchRates,
     scalars: FloatArray,
     right: bool,
 ) -> tuple[
@@ -429,16 +476,28 @@ def image_fits_loop(
     FloatArray,
     FloatArray,
 ]:
-    """The fitted lines of one image's pieces (``edge``, ``top``, ``bottom``, ``greys``) at the
-    columns of their edges (found edges ``u``, ``Z``, ``outcome``): in the left image ``u``; in
-    the right one ``u - f b / Z``, moved by a false match's error where ``outcome`` is 0 and
-    ``false_pick`` is below the false-match rate at ``Z`` (the error ``false_error[wrong_index]``,
-    negative where ``sign_pick < 0.5``). ``draw``: (3, m) standard normals; ``scalars``:
-    ``(error_scale, f b, point_var, bias_var, 2 near_px)``.
+    """The fitted lines of one image's ``pieces`` (``m``) at the columns of their edges
+    (``found``): in the left image ``u``; in the right one (``right``) ``u - f b / Z``, moved by
+    a false match's error where ``outcome`` is 0 and ``false_draws.pick`` is below the
+    false-match rate at ``Z`` (the error ``false_rates.error[wrong_index]``, negative where
+    ``sign_pick < 0.5``).
+
+    Args:
+        pieces: The image's pieces (``edge`` indexes ``found``).
+        draw: (3, m) standard normals: the offset's, the slope's and the bias's.
+        found: The found edges.
+        false_draws: Their false-match draws.
+        false_rates: The measured false matches.
+        scalars: ``(error_scale, f b, point_var, bias_var, 2 near_px)``, px and px^2.
+        right: Whether the image is the right one.
 
     Returns:
         ``piece_fits``' arrays and the pieces' contrast.
     """
+    edge, top, bottom, greys = pieces.edge, pieces.v_top, pieces.v_bottom, pieces.greys
+    u, Z, outcome = found
+    false_pick, wrong_index, sign_pick = false_draws
+    inner_bins, false_rate, false_error = false_rates
     scale, fb, point_var_px2, bias_var_px2, two_near = (
         scalars[0],
         scalars[1],

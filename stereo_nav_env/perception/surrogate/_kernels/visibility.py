@@ -5,13 +5,15 @@
 Each loop has a NumPy reference there (``seen_runs_reference``, ``floor_hidden_reference``: the
 sight lines clipped to every part at once by ``clip_to_parts``; ``visible_floor_lines_reference``,
 ``visible_edges_reference``) that a test holds it equal to, bit for bit. Per sight line, from the
-head ``(hx, hy)`` to a target stopped ``pull_back`` short of it, every part's footprint is clipped
-by Cyrus-Beck (``side_start``, ``side_normal``: each part's corners and outward side normals,
-padded by repeating the last), in the reference's arithmetic order. Frames and units: world
-metres, z up.
+head (:class:`Sight`) to a target stopped ``pull_back`` short of it, every part's footprint is
+clipped by Cyrus-Beck (:class:`Parts`: each part's corners and outward side normals, padded by
+repeating the last), in the reference's arithmetic order. The loops take the small named tuples
+below. Frames and units: world metres, z up.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 
@@ -19,12 +21,41 @@ from modeling.jit import compiled_helper, compiled_on_first_call
 from modeling.types import BoolArray, FloatArray, IntArray
 
 __all__ = [
+    "FloorSides",
+    "Parts",
+    "Sight",
     "crossing",
     "edge_candidates_loop",
     "floor_hidden_loop",
     "floor_lines_loop",
     "seen_runs_loop",
 ]
+
+
+class Sight(NamedTuple):
+    """Where the sight lines start, and how short of its target each stops."""
+
+    x: float  # the head, world metres
+    y: float
+    height: float  # its height above the floor, metres
+    pull_back: float  # a line stops this short of its target, metres
+
+
+class Parts(NamedTuple):
+    """The scene's parts that hide what is behind them (``SceneEdges``), ``P`` parts of at most
+    ``V`` corners."""
+
+    side_start: FloatArray  # (P, V, 2) each part's corners (the last repeated up to V), metres
+    side_normal: FloatArray  # (P, V, 2) the outward unit normal of the side from each corner
+    z_min: FloatArray  # (P,) bottom of each part, metres
+    z_max: FloatArray  # (P,) its top, metres
+
+
+class FloorSides(NamedTuple):
+    """The floor sides of the parts standing on the floor (``SceneEdges``), ``L`` of them."""
+
+    ends: FloatArray  # (L, 2, 2) their two ends, world metres
+    normal: FloatArray  # (L, 2) their outward unit normals
 
 
 @compiled_helper
@@ -59,24 +90,31 @@ def crossing(
 
 @compiled_on_first_call
 def seen_runs_loop(
-    hx: float,
-    hy: float,
-    hh: float,
+    sight: Sight,
+    parts: Parts,
     targets: FloatArray,
     own_part: IntArray,
-    low_in: FloatArray,
-    high_in: FloatArray,
-    side_start: FloatArray,
-    side_normal: FloatArray,
-    z_min: FloatArray,
-    z_max: FloatArray,
-    pull_back: float,
+    low: FloatArray,
+    high: FloatArray,
 ) -> tuple[FloatArray, FloatArray]:
     """``seen_runs_reference`` as loops: per edge, the sight line clipped to every part
-    (Cyrus-Beck, as ``clip_to_parts``), the hidden intervals, the longest run left."""
+    (Cyrus-Beck, as ``clip_to_parts``), the hidden intervals, the longest run left.
+
+    Args:
+        sight: The head and the lines' pull-back.
+        parts: The parts that hide.
+        targets: (n, 2) the edges' floor points, world metres.
+        own_part: (n,) the part each edge belongs to.
+        low, high: (n,) the heights of each edge to look along, metres.
+
+    Returns:
+        ``(low, high)``: (n,) each edge's longest unhidden run of heights, metres (new arrays).
+    """
+    hx, hy, hh, pull_back = sight
+    side_start, side_normal, z_min, z_max = parts
     n = targets.shape[0]
     n_parts = side_start.shape[0]
-    low, high = low_in.copy(), high_in.copy()
+    low, high = low.copy(), high.copy()
     hide_lo = np.empty(n_parts)
     hide_hi = np.empty(n_parts)
     for i in range(n):
@@ -133,20 +171,11 @@ def seen_runs_loop(
 
 
 @compiled_helper
-def point_hidden(
-    hx: float,
-    hy: float,
-    hh: float,
-    tx: float,
-    ty: float,
-    side_start: FloatArray,
-    side_normal: FloatArray,
-    z_min: FloatArray,
-    z_max: FloatArray,
-    pull_back: float,
-) -> bool:
-    """Whether a part hides the floor point ``(tx, ty)`` from the head (``floor_hidden_reference``
-    for one point)."""
+def point_hidden(sight: Sight, parts: Parts, tx: float, ty: float) -> bool:
+    """Whether a part hides the floor point ``(tx, ty)`` (world metres) from the head
+    (``floor_hidden_reference`` for one point)."""
+    hx, hy, hh, pull_back = sight
+    side_start, side_normal, z_min, z_max = parts
     dx, dy = tx - hx, ty - hy
     length = max(np.hypot(dx, dy), 1e-9)
     stepx = tx - dx * (pull_back / length) - hx
@@ -162,33 +191,13 @@ def point_hidden(
 
 
 @compiled_on_first_call
-def floor_hidden_loop(
-    hx: float,
-    hy: float,
-    hh: float,
-    targets: FloatArray,
-    side_start: FloatArray,
-    side_normal: FloatArray,
-    z_min: FloatArray,
-    z_max: FloatArray,
-    pull_back: float,
-) -> BoolArray:
-    """``floor_hidden_reference`` as loops (the clipping of :func:`seen_runs_loop`)."""
+def floor_hidden_loop(sight: Sight, parts: Parts, targets: FloatArray) -> BoolArray:
+    """``floor_hidden_reference`` as loops (the clipping of :func:`seen_runs_loop`): (n,) whether
+    a part hides each floor point ``targets`` (n, 2), world metres."""
     n = targets.shape[0]
     out = np.zeros(n, dtype=np.bool_)
     for i in range(n):
-        out[i] = point_hidden(
-            hx,
-            hy,
-            hh,
-            targets[i, 0],
-            targets[i, 1],
-            side_start,
-            side_normal,
-            z_min,
-            z_max,
-            pull_back,
-        )
+        out[i] = point_hidden(sight, parts, targets[i, 0], targets[i, 1])
     return out
 
 
@@ -196,25 +205,34 @@ def floor_hidden_loop(
 def floor_lines_loop(
     head: FloatArray,
     camera: FloatArray,
-    line_ends: FloatArray,
-    line_normal: FloatArray,
+    sides: FloorSides,
     seen_xy: FloatArray,
     samples: int,
     max_range_m: float,
-    side_start: FloatArray,
-    side_normal: FloatArray,
-    z_min: FloatArray,
-    z_max: FloatArray,
+    parts: Parts,
     pull_back: float,
 ) -> FloatArray:
     """``visible_floor_lines_reference`` as loops, in its arithmetic order.
 
-    ``head``: ``(x, y, height, cos heading, sin heading)``; ``camera``: ``(focal, cx, cy, fb,
-    min depth, max depth, width, height)`` of the rig, px and metres. Returns the (k, 2, 2)
-    image lines."""
+    Args:
+        head: ``(x, y, height, cos heading, sin heading)``, world metres.
+        camera: ``(focal, cx, cy, fb, min depth, max depth, width, height)`` of the rig, px and
+            metres.
+        sides: The parts' floor sides.
+        seen_xy: (c, 2) floor points of the seen corner edges, world metres.
+        samples: Points sampled along each side.
+        max_range_m: Farthest side midpoint looked at, metres.
+        parts: The parts that hide the floor.
+        pull_back: A sight line stops this short of its floor point, metres.
+
+    Returns:
+        (k, 2, 2) the image lines ``[[u, v], [u, v]]``, px, left end first.
+    """
     hx, hy, hh, c, s = head[0], head[1], head[2], head[3], head[4]
     f, cx, cy, fb = camera[0], camera[1], camera[2], camera[3]
     z_lo, z_hi, width, height = camera[4], camera[5], camera[6], camera[7]
+    line_ends, line_normal = sides
+    sight = Sight(hx, hy, hh, pull_back)
     lo, hi = 1.0 - 0.5, width - 0.5 - 1.0  # both images' columns, a pixel inside
     n_lines = line_ends.shape[0]
     out = np.empty((n_lines * ((samples + 1) // 2), 2, 2))
@@ -252,9 +270,7 @@ def floor_lines_loop(
             u_right = u - fb / Zs
             ok = ok and u >= lo and u <= hi and u_right >= lo and u_right <= hi
             ok = ok and cy + f * hh / (Z if Z > 0 else 1.0) <= height - 1.0
-            seen[j] = ok and not point_hidden(
-                hx, hy, hh, px, py, side_start, side_normal, z_min, z_max, pull_back
-            )
+            seen[j] = ok and not point_hidden(sight, parts, px, py)
         first = -1
         for j in range(samples):
             if seen[j] and first < 0:
