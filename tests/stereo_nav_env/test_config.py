@@ -13,8 +13,8 @@ from stereo_nav_env.config import (
     ObservationConfig,
     ObservationMode,
     RewardConfig,
+    WorldConfig,
 )
-from stereo_nav_env.config import WorldConfig
 
 
 def test_flat_keywords_reach_the_sub_configuration_that_owns_them() -> None:
@@ -75,6 +75,21 @@ def test_unknown_or_invalid_values_are_value_errors_naming_them(
 ) -> None:
     with pytest.raises(ValueError, match=name):
         EnvConfig.from_kwargs(**kwargs)
+
+
+def test_a_misspelt_keyword_gets_a_suggestion() -> None:
+    with pytest.raises(ValueError) as err:
+        EnvConfig.from_kwargs(robot_widht_m=0.6)
+    message = str(err.value)
+    assert message.startswith(
+        "unknown StereoNav option(s) ['robot_widht_m'] (did you mean 'robot_width_m'?); known: ["
+    )
+    assert "'tilt_rad'" in message  # the known names are still listed
+    with pytest.raises(ValueError, match=r"\['tilt_rd'\] \(did you mean 'tilt_rad'\?\)"):
+        EnvConfig.from_kwargs(camera={"tilt_rd": 0.1})
+    with pytest.raises(ValueError) as err:
+        EnvConfig.from_kwargs(zzz=1)
+    assert "did you mean" not in str(err.value) and "['zzz']" in str(err.value)
 
 
 def test_configs_are_frozen_slotted_and_keyword_only() -> None:
