@@ -8,9 +8,9 @@ from typing import Any
 import numpy as np
 import pytest
 
+from stereo_nav_env.config import WorldConfig
 from stereo_nav_env.sim.scenes import Obstacle, Scene, generate_scene, make_obstacle, oriented_rect
 from stereo_nav_env.sim.world import World, _clip
-from stereo_nav_env.config import WorldConfig
 
 
 def _scene(*obstacles: Obstacle, start: tuple[float, float, float] = (1.0, 2.0, 0.0)) -> Scene:
