@@ -17,7 +17,7 @@ from modeling.model.build import ModelOptions, build_model
 from modeling.model.records import EnvironmentModel
 from modeling.stereo.pipeline import STEREO_STAGES, option_fields, stereo_to_floor
 from modeling.stereo.rig import HeadPose, StereoRig
-from modeling.validation import positive, with_overrides
+from modeling.validation import positive, reject_unknown, with_overrides
 
 __all__ = ["model_from_stereo"]
 
@@ -48,7 +48,8 @@ def model_from_stereo(
         The :class:`~modeling.model.build.EnvironmentModel` (world frame, metres).
 
     Raises:
-        ValueError: an unknown option (all of them are named), or any bad input of the stages
+        ValueError: an unknown option (all of them are named, with the closest known one of each,
+            :func:`~modeling.validation.reject_unknown`), or any bad input of the stages
             (naming it).
     """
     positive(robot_width_m, "robot_width_m")  # fail before the stereo work
@@ -56,11 +57,7 @@ def model_from_stereo(
     known = model_keys.union(
         {"close_faces", "ground_lines"}, *(option_fields(c) for c in STEREO_STAGES.values())
     )
-    unknown = sorted(set(kw) - known)
-    if unknown:
-        raise ValueError(
-            f"unknown option(s) {unknown} of model_from_stereo; known: {sorted(known)}"
-        )
+    reject_unknown(kw, known, "model_from_stereo")
     model_options = with_overrides(
         None, ModelOptions, {k: v for k, v in kw.items() if k in model_keys}
     )

@@ -1,19 +1,21 @@
 """The project's validators: each returns the checked value or raises ``ValueError`` naming it.
 
 Array validators (:func:`finite_array`, :func:`covariance`, :func:`probabilities`), scalar ones
-(:func:`positive`, :func:`number`, :func:`integer`, :func:`boolean`) and the two helpers that
+(:func:`positive`, :func:`number`, :func:`integer`, :func:`boolean`), the two helpers that
 turn keyword arguments into frozen option dataclasses (:func:`with_overrides` for one stage's
-options, :func:`from_flat` for a tree of nested configurations). Every layer uses these; none
-writes its own.
+options, :func:`from_flat` for a tree of nested configurations) and :func:`reject_unknown`, the
+error of an unknown option name (with a "did you mean" of the close known names). Every layer uses
+these; none writes its own.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import functools
 import math
 import typing
-from collections.abc import Hashable, Mapping
+from collections.abc import Hashable, Iterable, Mapping
 from typing import Any, TypeVar
 
 import numpy as np
@@ -136,6 +138,34 @@ def boolean(value: Any, name: str) -> bool:
     return value
 
 
+def reject_unknown(given: Iterable[Any], known: Iterable[str], what: str = "") -> None:
+    """Nothing if every name in ``given`` is in ``known``; else a ``ValueError`` naming them.
+
+    The message names the unknown names, the closest known name of each that has one
+    (:func:`difflib.get_close_matches`, default cutoff), and all the known names, e.g.
+    ``unknown StereoNav option(s) ['robot_widht_m'] (did you mean 'robot_width_m'?); known:
+    [...]``. ``what`` qualifies "option(s)" (a class or function name; empty: none).
+    """
+    known = set(known)
+    unknown = sorted(set(given) - known, key=str)
+    if not unknown:
+        return
+    names = sorted(known)
+    close = {
+        key: match[0]
+        for key in unknown
+        if isinstance(key, str) and (match := difflib.get_close_matches(key, names, n=1))
+    }
+    if len(unknown) == 1 and close:
+        hint = f" (did you mean {next(iter(close.values()))!r}?)"
+    elif close:
+        hint = " (did you mean " + ", ".join(f"{m!r} for {k!r}" for k, m in close.items()) + "?)"
+    else:
+        hint = ""
+    label = f"{what} option(s)" if what else "option(s)"
+    raise ValueError(f"unknown {label} {unknown}{hint}; known: {names}")
+
+
 def _field_names(cls: type[Any]) -> tuple[str, ...]:
     return tuple(f.name for f in dataclasses.fields(cls))
 
@@ -172,11 +202,7 @@ def _with_overrides(options: T | None, cls: type[T], overrides: Mapping[str, Any
         raise ValueError(f"options must be a {cls.__name__}, got {type(options).__name__}")
     if not overrides:
         return base
-    unknown = sorted(set(overrides) - set(_field_names(cls)))
-    if unknown:
-        raise ValueError(
-            f"unknown {cls.__name__} option(s) {unknown}; known: {sorted(_field_names(cls))}"
-        )
+    reject_unknown(overrides, _field_names(cls), cls.__name__)
     return dataclasses.replace(base, **overrides)  # type: ignore[type-var]
 
 
@@ -207,29 +233,24 @@ def from_flat(cls: type[T], kwargs: Mapping[str, Any], *, what: str | None = Non
     fields (flat keys override it). Values are validated by the dataclasses themselves.
 
     Raises:
-        ValueError: an unknown key (named, with the known ones), or a nested value that is neither
-            an instance nor a dict.
+        ValueError: an unknown key (named, with the closest known one and all the known ones,
+            :func:`reject_unknown`), or a nested value that is neither an instance nor a dict.
     """
     label = what or cls.__name__
     nested = _nested(cls)
     owner = {leaf: key for key, sub in nested.items() for leaf in _leaves(sub)}
     own = set(_field_names(cls)) - set(nested)
+    reject_unknown(kwargs, own | set(nested) | set(owner), label)
     top: dict[str, Any] = {}
     parts: dict[str, dict[str, Any]] = {key: {} for key in nested}
     whole: dict[str, Any] = {}
-    unknown: list[str] = []
     for key, value in kwargs.items():
         if key in nested:
             whole[key] = value
         elif key in own:
             top[key] = value
-        elif key in owner:
-            parts[owner[key]][key] = value
         else:
-            unknown.append(key)
-    if unknown:
-        known = sorted(own | set(nested) | set(owner))
-        raise ValueError(f"unknown {label} option(s) {sorted(unknown)}; known: {known}")
+            parts[owner[key]][key] = value
     for key, sub in nested.items():
         if key not in whole and not parts[key]:
             continue

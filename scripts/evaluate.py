@@ -1,11 +1,12 @@
-"""Evaluate agents on the fixed, seeded scene suite; write JSON, Markdown and a bar plot.
+"""Evaluate agents on the fixed, seeded scene suite; print a Markdown table; write JSON, a plot.
 
-    python scripts/evaluate.py --agent NAME [--agent NAME ...] --episodes N --seed S --json FILE
-        [--markdown FILE] [--plot FILE] [--details FILE] [--scenario FAMILY]
+    python scripts/evaluate.py --agent NAME [--agent NAME ...] [--episodes N] [--seed S]
+        [--json FILE] [--markdown FILE] [--plot FILE] [--details FILE] [--scenario FAMILY]
         [--families F [F ...]] [--max-steps N] [--workers K] [--terminate-on-collision]
         [--perception P] [--tilt RAD] [--fused-range M] [--ground-lines]
 
-The suite runs under the StereoNav-v1 rules; each agent's JSON entry records them ("rules") and
+The Markdown table is always printed; each file option writes its file, none by default. The suite
+runs under the StereoNav-v1 rules; each agent's JSON entry records them ("rules") and
 carries 95 % bootstrap intervals of its rates (keys ending in "_ci").
 
 Agent names: random, greedy, cautious, planner, oracle, ppo:PATH, rllib:PATH. The logic is in
@@ -39,7 +40,7 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
     parser.add_argument("--agent", action="append", required=True, help="agent name (repeat)")
     parser.add_argument("--episodes", type=int, default=32, help="episodes per agent")
     parser.add_argument("--seed", type=int, default=0, help="suite seed")
-    parser.add_argument("--json", type=pathlib.Path, required=True, help="summary JSON file")
+    parser.add_argument("--json", type=pathlib.Path, help="summary JSON file (default: none)")
     parser.add_argument("--markdown", type=pathlib.Path, help="Markdown table file")
     parser.add_argument("--plot", type=pathlib.Path, help="bar plot (PNG)")
     parser.add_argument("--details", type=pathlib.Path, help="per-episode JSON file")
@@ -108,15 +109,17 @@ def suite_config(argv: list[str] | None = None) -> SuiteConfig:
 
 
 def main(argv: list[str] | None = None) -> dict[str, dict[str, Any]]:
-    """Parse the arguments, run the suite, write the outputs; returns the summary."""
+    """Parse the arguments, run the suite, print its table, write the files asked for; returns
+    the summary."""
     args, cfg = _arguments(argv)
     results = evaluate(args.agent, cfg, workers=args.workers, progress=not args.no_progress)
     summary = summarize(dict(results))
     rules = suite_rules(cfg)
     for figures in summary.values():
         figures["rules"] = rules
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps(summary, indent=2) + "\n")
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(summary, indent=2) + "\n")
     table = markdown_table(summary)
     print(table)
     if args.markdown is not None:

@@ -25,7 +25,7 @@ from modeling.stereo.matching import MatchOptions, match_segments
 from modeling.stereo.rig import HeadPose, StereoRig
 from modeling.stereo.segments import SegmentOptions, extract_segment_pair
 from modeling.stereo.triangulation import TriangulationOptions, triangulate_to_floor
-from modeling.validation import instance, with_overrides
+from modeling.validation import instance, reject_unknown, with_overrides
 
 __all__ = ["STEREO_STAGES", "option_fields", "route_options", "stereo_to_floor", "to_gray"]
 
@@ -50,13 +50,11 @@ def route_options(kw: Mapping[str, Any], stages: Mapping[str, type[Any]]) -> dic
     """One options instance per stage from flat keywords (each key to every stage naming it).
 
     Raises:
-        ValueError: A key no stage has (every unknown key named, with the known ones), or a bad
+        ValueError: A key no stage has (every unknown key named, with the closest known one and
+            all the known ones, :func:`~modeling.validation.reject_unknown`), or a bad
             value (the dataclass names it).
     """
-    known = frozenset().union(*(option_fields(cls) for cls in stages.values()))
-    unknown = sorted(set(kw) - known)
-    if unknown:
-        raise ValueError(f"unknown option(s) {unknown}; known: {sorted(known)}")
+    reject_unknown(kw, frozenset().union(*(option_fields(cls) for cls in stages.values())))
     return {
         name: with_overrides(None, cls, {k: v for k, v in kw.items() if k in option_fields(cls)})
         for name, cls in stages.items()

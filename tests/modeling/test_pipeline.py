@@ -104,5 +104,8 @@ def test_flat_options_are_routed_by_the_fields_of_each_stage_dataclass() -> None
     with pytest.raises(ValueError, match=r"unknown option\(s\) \['sigma_px'\]"):
         route_options({"sigma_px": 1.5}, STEREO_STAGES)  # the rig's, not an option
     assert route_options({}, STEREO_STAGES)["matching"] == MatchOptions()
-    with pytest.raises(ValueError, match=r"unknown option\(s\) \['rel_peek'\]; known: \["):
+    with pytest.raises(
+        ValueError,
+        match=r"unknown option\(s\) \['rel_peek'\] \(did you mean 'rel_peak'\?\); known: \[",
+    ):
         route_options({"rel_peek": 0.4}, STEREO_STAGES)

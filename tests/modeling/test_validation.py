@@ -168,6 +168,30 @@ def test_from_flat_maps_flat_and_nested_keys() -> None:
         from_flat(_Tree, {"leaf": 3})
 
 
+def test_reject_unknown_names_the_key_and_suggests_a_close_known_one() -> None:
+    from modeling.validation import from_flat, reject_unknown
+
+    known = ["robot_width_m", "robot_height_m", "tilt_rad"]
+    reject_unknown(["tilt_rad", "robot_width_m"], known, "X")  # all known: nothing
+    with pytest.raises(ValueError) as err:
+        reject_unknown(["robot_widht_m"], known, "X")
+    assert str(err.value) == (
+        "unknown X option(s) ['robot_widht_m'] (did you mean 'robot_width_m'?); "
+        "known: ['robot_height_m', 'robot_width_m', 'tilt_rad']"
+    )
+    with pytest.raises(ValueError) as err:  # no close match: no suggestion
+        reject_unknown(["colour"], known)
+    assert str(err.value) == (
+        "unknown option(s) ['colour']; known: ['robot_height_m', 'robot_width_m', 'tilt_rad']"
+    )
+    with pytest.raises(ValueError, match=r"\['colour', 'tilt_rd'\] \(did you mean 'tilt_rad' for"):
+        reject_unknown(["tilt_rd", "colour"], known, "X")
+    with pytest.raises(
+        ValueError, match=r"_Tree\.leaf option\(s\) \['xx'\] \(did you mean 'x'\?\)"
+    ):
+        from_flat(_Tree, {"leaf": {"xx": 1}})
+
+
 def test_with_overrides_replaces_named_fields_only() -> None:
     from modeling.validation import with_overrides
 

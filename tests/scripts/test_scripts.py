@@ -58,6 +58,21 @@ def test_evaluate_writes_json_markdown_plot_and_details(
     assert "| random | 2 |" in capsys.readouterr().out
 
 
+def test_evaluate_without_json_prints_the_table_and_writes_no_file(
+    tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    summary = _script("evaluate").main(
+        [
+            "--agent", "oracle", "--episodes", "1", "--families", "corridor", "--max-steps", "3",
+            "--perception", "surrogate", "--no-progress",
+        ]
+    )  # fmt: skip
+    assert list(summary) == ["oracle"] and summary["oracle"]["episodes"] == 1
+    assert "| oracle | 1 |" in capsys.readouterr().out
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_demo_writes_gif_figure_and_summary(
     tmp_path: pathlib.Path, small_map: pathlib.Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

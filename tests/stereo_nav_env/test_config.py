@@ -77,6 +77,21 @@ def test_unknown_or_invalid_values_are_value_errors_naming_them(
         EnvConfig.from_kwargs(**kwargs)
 
 
+def test_a_misspelt_keyword_gets_a_suggestion() -> None:
+    with pytest.raises(ValueError) as err:
+        EnvConfig.from_kwargs(robot_widht_m=0.6)
+    message = str(err.value)
+    assert message.startswith(
+        "unknown StereoNav option(s) ['robot_widht_m'] (did you mean 'robot_width_m'?); known: ["
+    )
+    assert "'tilt_rad'" in message  # the known names are still listed
+    with pytest.raises(ValueError, match=r"\['tilt_rd'\] \(did you mean 'tilt_rad'\?\)"):
+        EnvConfig.from_kwargs(camera={"tilt_rd": 0.1})
+    with pytest.raises(ValueError) as err:
+        EnvConfig.from_kwargs(zzz=1)
+    assert "did you mean" not in str(err.value) and "['zzz']" in str(err.value)
+
+
 def test_configs_are_frozen_slotted_and_keyword_only() -> None:
     cfg = EnvConfig()
     with pytest.raises(dataclasses.FrozenInstanceError):

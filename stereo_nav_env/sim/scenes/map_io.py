@@ -64,7 +64,7 @@ import json
 import math
 import pathlib
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -298,13 +298,75 @@ def _no_constant(name: str) -> Any:
     raise ValueError(f"map values must be finite numbers, got {name}")
 
 
+_MAX_NAMED = 8
+"""Obstacles named at most by the error of an unreachable goal (then "and N more")."""
+_MAX_TRIED = 16
+"""Obstacles taken away one at a time at most (each try recomputes the free area)."""
+_TOUCH_M = 1e-4
+"""Distance, metres, under which a grown footprint counts as bordering a piece of free area."""
+
+
+def _obstacle_names(scene: Scene, indices: list[int]) -> str:
+    """``obstacles[i] (kind at (x, y))`` of each index (its centroid), ``_MAX_NAMED`` at most."""
+    names = []
+    for i in indices[:_MAX_NAMED]:
+        c = scene.obstacles[i].polygon.centroid
+        names.append(f"obstacles[{i}] ({scene.obstacles[i].kind.value} at ({c.x:.3g}, {c.y:.3g}))")
+    more = f" and {len(indices) - _MAX_NAMED} more" if len(indices) > _MAX_NAMED else ""
+    return ", ".join(names) + more
+
+
+def _cut_off(scene: Scene, robot_width_m: float) -> str:
+    """The obstacles that keep the goal from the start, as the end of the error message (for a
+    scene whose start and goal are free but not connected).
+
+    The free area (where the robot's centre may be: :meth:`Scene.free_space`) falls into pieces.
+    The barrier is the obstacles whose footprints, grown by the robot's radius, border both the
+    start's piece and the goal's. Named are, in this order of preference: those of the barrier
+    whose removal alone opens a route (tried when the barrier has at most ``_MAX_TRIED``); else
+    the barrier; else (free pockets lie between the two pieces) those bordering the smaller of
+    the two pieces.
+    """
+    free = scene.free_space(robot_width_m, margin_m=0.0)
+    pieces = list(getattr(free, "geoms", [free]))
+    start_piece = next(p for p in pieces if p.contains(Point(*scene.start[:2])))
+    goal_piece = next(p for p in pieces if p.contains(Point(*scene.goal)))
+    grown = [ob.polygon.buffer(robot_width_m / 2.0, quad_segs=8) for ob in scene.obstacles]
+    near_start = [i for i, g in enumerate(grown) if g.distance(start_piece) < _TOUCH_M]
+    near_goal = [i for i, g in enumerate(grown) if g.distance(goal_piece) < _TOUCH_M]
+    barrier = sorted(set(near_start) & set(near_goal))
+    tried = len(barrier) <= _MAX_TRIED
+    blocking = [
+        i
+        for i in (barrier if tried else [])
+        if replace(scene, obstacles=scene.obstacles[:i] + scene.obstacles[i + 1 :]).route_exists(
+            robot_width_m, margin_m=0.0
+        )
+    ]
+    if len(blocking) == 1:
+        return f"{_obstacle_names(scene, blocking)} blocks the way (removing it opens a route)"
+    if blocking:
+        return (
+            f"{_obstacle_names(scene, blocking)} block the way "
+            "(removing any one of them opens a route)"
+        )
+    if barrier:
+        verb = "stands" if len(barrier) == 1 else "stand"
+        alone = " (no one of them alone blocks the way)" if tried and len(barrier) > 1 else ""
+        return f"{_obstacle_names(scene, barrier)} {verb} between start and goal{alone}"
+    if start_piece.area < goal_piece.area:
+        return f"the start is walled in by {_obstacle_names(scene, near_start)}"
+    return f"the goal is walled in by {_obstacle_names(scene, near_goal)}"
+
+
 def check_navigable(scene: Scene, robot_width_m: float) -> Scene:
     """``scene`` if a robot of ``robot_width_m`` can drive it: start and goal clear of every
     footprint by the robot's radius and inside the bounds, and the goal reachable for the
     robot's disc.
 
     Raises:
-        ValueError: Naming ``start`` or ``goal`` (with the nearest obstacle), or the route.
+        ValueError: Naming ``start`` or ``goal`` (with the nearest obstacle), or the goal when it
+            cannot be reached (with the obstacles that cut it off, :func:`_cut_off`).
     """
     radius = positive(robot_width_m, "robot_width_m") / 2.0
     for field, xy in (("start", scene.start[:2]), ("goal", scene.goal)):
@@ -320,7 +382,11 @@ def check_navigable(scene: Scene, robot_width_m: float) -> Scene:
             f"by the robot's radius {radius:g} m{where}",
         )
     if not scene.route_exists(robot_width_m, margin_m=0.0):
-        raise _err("goal", f"cannot be reached from start by a robot {robot_width_m:g} m wide")
+        raise _err(
+            "goal",
+            f"cannot be reached from start by a robot {robot_width_m:g} m wide: "
+            + _cut_off(scene, robot_width_m),
+        )
     return scene
 
 

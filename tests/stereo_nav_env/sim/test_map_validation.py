@@ -159,8 +159,53 @@ def test_an_unreachable_goal_is_refused(tmp_path: pathlib.Path) -> None:
     # The map without the two walls is drivable, but not for a robot too wide for its doorways.
     scene = load_map(_write(tmp_path, _default(), "ok.json"))
     assert check_navigable(scene, 0.4) is scene
-    with pytest.raises(ValueError, match="goal cannot be reached"):
+    # Too narrow for 0.9 m, both doorways; widening either (taking wall 4 or 6 away) would do.
+    with pytest.raises(
+        ValueError, match=r"goal cannot be reached .*: obstacles\[4\] .*, obstacles\[6\] .* block"
+    ):
         check_navigable(scene, 0.9)
+
+
+def _walled_map(*walls: dict[str, Any]) -> dict[str, Any]:
+    """A 6 m x 3 m room, start on the left, goal on the right, ``walls`` then a box far away."""
+    return {
+        "bounds": [0.0, 0.0, 6.0, 3.0],
+        "start": [1.0, 1.5, 0.0],
+        "goal": [5.0, 1.5],
+        "obstacles": [*walls, {"kind": "box", "rect": {"center": [0.8, 0.4], "size": [0.3, 0.3]}}],
+    }
+
+
+def test_an_unreachable_goal_names_the_obstacles_that_cut_it_off(tmp_path: pathlib.Path) -> None:
+    # Two walls across the room at x = 3 (overlapping at y 1.4-1.6): either one alone would leave
+    # a route; the box far away (obstacles[2]) has nothing to do with it.
+    lower = {"kind": "wall", "footprint": [[2.9, 0.0], [3.1, 0.0], [3.1, 1.6], [2.9, 1.6]]}
+    upper = {"kind": "wall", "rect": {"center": [3.0, 2.2], "size": [1.6, 0.2], "yaw_deg": 90}}
+    path = _write(tmp_path, _walled_map(lower, upper))
+    with pytest.raises(ValueError) as err:
+        load_scenario(str(path))
+    assert str(err.value) == (
+        "goal cannot be reached from start by a robot 0.5 m wide: obstacles[0] (wall at "
+        "(3, 0.8)), obstacles[1] (wall at (3, 2.2)) block the way (removing any one of them "
+        "opens a route)"
+    )
+    # A wall doubled: each one alone still blocks, so the message says so.
+    whole = {"kind": "wall", "rect": {"center": [3.0, 1.5], "size": [3.0, 0.2], "yaw_deg": 90}}
+    path = _write(tmp_path, _walled_map(whole, whole))
+    with pytest.raises(ValueError) as err:
+        load_scenario(str(path))
+    assert str(err.value).endswith(
+        "obstacles[0] (wall at (3, 1.5)), obstacles[1] (wall at (3, 1.5)) stand between start "
+        "and goal (no one of them alone blocks the way)"
+    )
+    assert "obstacles[2]" not in str(err.value)
+    # Two walls 1 m apart, a free pocket between: the goal's side is the smaller, its wall named.
+    far = {"kind": "wall", "rect": {"center": [4.0, 1.5], "size": [3.0, 0.2], "yaw_deg": 90}}
+    path = _write(tmp_path, _walled_map(whole, far))
+    with pytest.raises(
+        ValueError, match=r"the goal is walled in by obstacles\[1\] \(wall at \(4, 1\.5\)\)$"
+    ):
+        load_scenario(str(path))
 
 
 # ---------------------------------------------------------------------------------- hypothesis
