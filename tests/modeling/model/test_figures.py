@@ -281,38 +281,58 @@ def test_plot_model_draws_one_panel_per_situation_like_figs_6_and_11() -> None:
     from matplotlib.collections import LineCollection
     from matplotlib.figure import Figure
     from matplotlib.patches import Polygon as MplPolygon
+    from matplotlib.text import Text
 
-    from modeling.plotting import plot_model
+    from modeling.plotting import legend_handles, plot_model, region_label
 
     A, B = box(0, 0, 1, 1), box(1.5, 0, 2.5, 1)  # a 0.5 m gap: one critical region
     a1 = amb([seg((1.0, 0.5), (1.5, 0.5)), seg((1.0, 3.0), (1.5, 3.0))], [0.6, 0.4])
     m = build_model(observe(A + B, [a1]), W)
-    assert len(m.situations) == 2 and len(m.occluded) >= 1
+    assert len(m.situations) == 2 and len(m.occluded) >= 1 and m.units == ((0,),)
     fig = plot_model(m, max_panels=4)
     assert isinstance(fig, Figure)
     axes = [a for a in fig.axes if a.get_visible()]
     assert len(axes) == 2
-    for a, s in zip(axes, m.situations, strict=True):
-        assert a.get_title().startswith(f"p = {s.probability:.3g}")
+    for k, (a, s) in enumerate(zip(axes, m.situations, strict=True)):
+        # Fig. 11's caption: the probability and which candidate of unit a is true.
+        assert a.get_title() == f"situation {k + 1} of 2: p = {s.probability:.2f}\na{k + 1} true"
         texts = {t.get_text() for t in a.texts}
-        assert {f"{r.p_passable:.2f}" for r in s.critical_regions} <= texts
+        assert {region_label(r) for r in s.critical_regions} <= texts
+        assert "w = 0.50 ± 0.01 m\nP(pass) = 0.50" in texts or not s.critical_regions
         assert {str(k) for k in range(len(s.obstacles))} <= texts
+        assert {"a1", "a2"} <= texts  # the possible positions (Fig. 10)
         polys = [p for p in a.patches if isinstance(p, MplPolygon)]
         # occluded area + obstacles + critical regions
         assert len(polys) == len(m.occluded) + len(s.obstacles) + len(s.critical_regions)
         purple = [c for c in a.collections if isinstance(c, LineCollection)][-2:]
         assert sum(len(c.get_segments()) for c in purple) == 2  # both candidates drawn
+        filled = [ln for ln in a.lines if ln.get_marker() == "o" and ln.get_mfc() != "none"]
+        circled = [ln for ln in a.lines if ln.get_marker() == "o" and ln.get_mfc() == "none"]
+        assert len(circled) == 1 and len(filled) == 2  # the other position; this one, viewpoint
     assert len(m.situations[1].critical_regions) == 1  # candidate away: the gap stays undecided
     png = io.BytesIO()
     fig.savefig(png, format="png", dpi=40)
     assert png.getvalue()[:4] == b"\x89PNG"
-    # On a given axes: the most probable situation only.
+    # No two labels of a panel overlap (their text boxes, leader lines aside).
+    fig.canvas.draw()
+    for a in axes:
+        boxes = [Text.get_window_extent(t) for t in a.texts]
+        assert len(boxes) >= 3
+        assert not any(b.overlaps(c) for i, b in enumerate(boxes) for c in boxes[i + 1 :])
+    # On a given axes: the situation asked for (the most probable by default).
     fig2 = Figure()
     ax = fig2.add_subplot()
     assert plot_model(m, ax=ax, show_ellipses=False) is fig2
-    assert ax.get_title().startswith(f"p = {m.situations[0].probability:.3g}")
+    assert ax.get_title().startswith(f"situation 1 of 2: p = {m.situations[0].probability:.2f}")
+    ax2 = fig2.add_subplot(2, 1, 2)
+    plot_model(m, ax=ax2, situation=1)
+    assert ax2.get_title().startswith(f"situation 2 of 2: p = {m.situations[1].probability:.2f}")
+    texts = [t for _, t in legend_handles()]
+    assert {"occluded area", "true outline", "critical region (w, P(pass))"} <= set(texts)
     with pytest.raises(ValueError, match="max_panels"):
         plot_model(m, max_panels=0)
+    with pytest.raises(ValueError, match="situation"):
+        plot_model(m, ax=ax, situation=2)
     # matplotlib is imported lazily.
     code = "import sys, modeling.plotting; print('matplotlib' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
