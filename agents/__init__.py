@@ -1,4 +1,4 @@
-"""Agents for StereoNav-v0: scripted baselines, the expected-cost planner and the PPO glue.
+"""Agents for the StereoNav environments: scripted baselines, the expected-cost planner, learners.
 
 ``make_agent(name, env)`` builds an agent by its registry name (ARCHITECTURE.md):
 
@@ -12,10 +12,16 @@
 ``rllib:PATH`` an RLlib checkpoint folder at ``PATH`` (``train.py --backend rllib``; ray
                imported only then)
 =============  ===============================================================================
+
+The package: :mod:`.base` (the :class:`Agent` interface and what agents read from the env),
+:mod:`.baselines` (``random``, ``oracle``), :mod:`agents.planning` (the model-based agents),
+:mod:`agents.learning` (training and the agents of trained policies) and
+:mod:`agents.evaluation` (the suite, the demo and the measuring tools).
 """
 
 from __future__ import annotations
 
+import importlib
 from typing import Any
 
 from agents.base import Agent, is_look
@@ -23,6 +29,19 @@ from agents.base import Agent, is_look
 __all__ = ["AGENT_NAMES", "Agent", "is_look", "make_agent"]
 
 AGENT_NAMES = ("random", "greedy", "cautious", "planner", "oracle", "ppo:PATH", "rllib:PATH")
+
+_REGISTRY: dict[str, tuple[str, str, bool]] = {
+    "random": ("agents.baselines", "RandomAgent", False),
+    "oracle": ("agents.baselines", "OracleAgent", False),
+    "greedy": ("agents.planning.navigator", "ModelBasedAgent", True),
+    "cautious": ("agents.planning.navigator", "ModelBasedAgent", True),
+    "planner": ("agents.planning.navigator", "ModelBasedAgent", True),
+    "ppo:": ("agents.learning.ppo", "PPOAgent", True),
+    "rllib:": ("agents.learning.rllib.agent", "RLlibAgent", True),
+}
+"""Name (or ``prefix:``) -> (module, class, whether the class takes the name's argument first:
+the policy for the model-based agents, the path for the trained ones). Modules are imported on
+use, so that torch and ray load only for the agents that need them."""
 
 
 def make_agent(name: str, env: Any = None, **kwargs: Any) -> Agent:
@@ -38,28 +57,15 @@ def make_agent(name: str, env: Any = None, **kwargs: Any) -> Agent:
     """
     if not isinstance(name, str):
         raise ValueError(f"name must be a string, got {name!r}")
-    if name == "random":
-        from agents.baselines import RandomAgent
-
-        agent: Agent = RandomAgent(**kwargs)
-    elif name == "oracle":
-        from agents.baselines import OracleAgent
-
-        agent = OracleAgent(**kwargs)
-    elif name in ("greedy", "cautious", "planner"):
-        from agents.planning.navigator import ModelBasedAgent
-
-        agent = ModelBasedAgent(name, **kwargs)
-    elif name.startswith("ppo:") and len(name) > 4:
-        from agents.learning.ppo import PPOAgent
-
-        agent = PPOAgent(name[4:], **kwargs)
-    elif name.startswith("rllib:") and len(name) > 6:
-        from agents.learning.rllib.agent import RLlibAgent
-
-        agent = RLlibAgent(name[6:], **kwargs)
-    else:
+    key, argument = name, name
+    if ":" in name:
+        prefix, argument = name.split(":", 1)
+        key = prefix + ":" if argument else name
+    if key not in _REGISTRY:
         raise ValueError(f"unknown agent {name!r}; known: {list(AGENT_NAMES)}")
+    module, cls_name, takes_argument = _REGISTRY[key]
+    cls = getattr(importlib.import_module(module), cls_name)
+    agent: Agent = cls(argument, **kwargs) if takes_argument else cls(**kwargs)
     agent.name = name
     agent.env = env
     return agent

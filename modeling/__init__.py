@@ -5,6 +5,19 @@ regions, occlusion and the enumeration of possible situations. Depends on numpy,
 networkx and (for segment extraction only) OpenCV and Numba; never on gymnasium, pymunk, pyrender
 or torch.
 
+The package, by concept (docs/architecture.md):
+
+* :mod:`modeling.stereo`: from a rectified image pair to a floor observation (paper section 3);
+* :mod:`modeling.observation`: :class:`FloorObservation`, the one seam between stereo and model;
+* :mod:`modeling.model`: from a floor observation to obstacles, critical regions, occlusion and
+  situations (sections 2 and 4);
+* :mod:`modeling.memory`: the fusion of observations across views (section 6);
+* :mod:`modeling.pipeline`: ``model_from_stereo``, the only place stereo and model meet;
+* shared helpers: :mod:`modeling.types` (array aliases), :mod:`modeling.validation` (input
+  checks that raise ``ValueError`` naming the field), :mod:`modeling.geometry` (angles, frames),
+  :mod:`modeling.jit` (Numba on first call), :mod:`modeling.worker` (one worker thread) and
+  :mod:`modeling.plotting` (matplotlib figures of a model, imported lazily).
+
 Public names are imported lazily so that ``import modeling`` stays cheap.
 """
 

@@ -1,8 +1,9 @@
 """Numba compilation on first use: the one place the project's compiled loops are made.
 
 Public, so that every package compiles its loops the same way: the loops of :mod:`modeling` (in
-the private :mod:`modeling._compiled`) and the env's pixel-noise lookup
-(:mod:`stereo_nav_env.perception.stereo`).
+the private ``_kernels`` of :mod:`modeling.stereo`, :mod:`modeling.model` and
+:mod:`modeling.memory`), the surrogate's and the env's pixel-noise lookup
+(:mod:`stereo_nav_env.perception.noise`).
 
 ``import modeling`` does not import Numba (it costs about half a second); each loop is compiled,
 or loaded from Numba's on-disk cache (next to the source), the first time it is called, with the

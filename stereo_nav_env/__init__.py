@@ -7,6 +7,14 @@ model of the stereo pair (situations, critical regions, a top-down raster); see
 same environments under the v1 episode rules (``rules="v1"``: collisions do not end an episode;
 :data:`stereo_nav_env.config.RULES`) with the observation made for learned policies
 (``observation_mode="policy"``).
+
+The package: :mod:`.env` (the environment, a thin orchestrator), :mod:`.config` (its frozen
+configurations), :mod:`.actions`, :mod:`.rewards` (named components), :mod:`.diagnostics` (the
+models against ground truth), :mod:`.fusion` (the env's side of the fused memory), and the
+subpackages :mod:`stereo_nav_env.sim` (the pymunk world and the scenes),
+:mod:`stereo_nav_env.perception` (one interface: stereo, surrogate),
+:mod:`stereo_nav_env.observation` (packing the Dict observation) and
+:mod:`stereo_nav_env.rendering` (pyrender, shading, the viewer).
 """
 
 from gymnasium.envs.registration import register

@@ -129,3 +129,126 @@ def test_importing_modeling_pulls_in_no_simulator() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+SUBPACKAGE_FORBIDDEN = {
+    "modeling/stereo": ("modeling.model", "modeling.memory"),
+    "modeling/model": ("modeling.stereo", "modeling.memory"),
+    "modeling/memory": ("modeling.stereo",),
+    "stereo_nav_env/sim": (
+        "stereo_nav_env.perception",
+        "stereo_nav_env.observation",
+        "stereo_nav_env.rendering",
+        "stereo_nav_env.env",
+    ),
+    "stereo_nav_env/rendering": ("stereo_nav_env.perception", "stereo_nav_env.observation"),
+    "stereo_nav_env/observation": ("stereo_nav_env.perception", "stereo_nav_env.sim"),
+    "stereo_nav_env/perception": ("stereo_nav_env.observation", "stereo_nav_env.env"),
+    "agents/planning": ("agents.learning", "agents.evaluation"),
+}
+"""What each subpackage may not import (docs/architecture.md): stereo/ and model/ meet only at
+the floor observation, the simulator knows nothing of what perceives or draws it, and so on."""
+
+
+def _imported_modules(path: pathlib.Path) -> set[str]:
+    tree = ast.parse(path.read_text(), filename=str(path))
+    found: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            found.add(node.module)
+            found.update(f"{node.module}.{alias.name}" for alias in node.names)
+    return found
+
+
+@pytest.mark.parametrize(("folder", "forbidden"), sorted(SUBPACKAGE_FORBIDDEN.items()))
+def test_subpackages_import_only_what_their_layer_allows(
+    folder: str, forbidden: tuple[str, ...]
+) -> None:
+    bad = {
+        str(path.relative_to(ROOT)): sorted(
+            m
+            for m in _imported_modules(path)
+            if any(m == f or m.startswith(f + ".") for f in forbidden)
+        )
+        for path in (ROOT / folder).rglob("*.py")
+    }
+    assert {k: v for k, v in bad.items() if v} == {}
+
+
+def _module_name(path: pathlib.Path) -> str:
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _imported_module_paths(path: pathlib.Path) -> set[str]:
+    """The dotted modules ``path`` imports (``import a.b``, ``from a.b import c``: ``a.b``)."""
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            found.add(node.module)
+    return found
+
+
+def test_private_modules_are_imported_only_inside_their_own_subpackage() -> None:
+    """``X._kernels`` (or any ``X._private`` module) is imported only by modules of ``X``."""
+    bad = []
+    for package in PACKAGES:
+        for path in (ROOT / package).rglob("*.py"):
+            importer = _module_name(path)
+            for module in _imported_module_paths(path):
+                parts = module.split(".")
+                if parts[0] not in PACKAGES:
+                    continue
+                private = [
+                    i for i, p in enumerate(parts) if p.startswith("_") and not p.endswith("__")
+                ]
+                if not private:
+                    continue
+                owner = ".".join(parts[: private[0]])
+                if importer != owner and not importer.startswith(owner + "."):
+                    bad.append(f"{importer} imports {module}")
+    assert bad == []
+
+
+def _package_dirs() -> list[pathlib.Path]:
+    return sorted(
+        d
+        for package in PACKAGES
+        for d in [ROOT / package, *(ROOT / package).rglob("*")]
+        if d.is_dir() and (d / "__init__.py").exists()
+    )
+
+
+@pytest.mark.parametrize("folder", [str(d.relative_to(ROOT)) for d in _package_dirs()])
+def test_each_package_folder_holds_at_most_12_modules_and_says_what_it_owns(folder: str) -> None:
+    directory = ROOT / folder
+    modules = sorted(p.stem for p in directory.glob("*.py") if p.name != "__init__.py")
+    assert len(modules) <= 12, modules
+    doc = ast.get_docstring(ast.parse((directory / "__init__.py").read_text())) or ""
+    assert doc, f"{folder}/__init__.py has no docstring"
+    if directory.name.startswith("_"):
+        return  # a private subpackage: its docstring says whose loops it holds
+    public = [m for m in modules if not m.startswith("_")]
+    subpackages = [d.name for d in directory.iterdir() if (d / "__init__.py").exists()]
+    unnamed = [m for m in public + subpackages if not m.startswith("_") and m not in doc]
+    assert unnamed == [], f"{folder}/__init__.py does not name {unnamed}"
+
+
+def test_no_function_takes_more_than_8_positional_arguments() -> None:
+    bad = []
+    for folder in (*PACKAGES, "scripts"):
+        for path in (ROOT / folder).rglob("*.py"):
+            for node in ast.walk(ast.parse(path.read_text())):
+                if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                    args = [
+                        a.arg
+                        for a in (*node.args.posonlyargs, *node.args.args)
+                        if a.arg not in ("self", "cls")
+                    ]
+                    if len(args) > 8:
+                        bad.append(f"{path.relative_to(ROOT)}:{node.name} ({len(args)})")
+    assert bad == []
