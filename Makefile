@@ -5,6 +5,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip
 STAMP := $(VENV)/.installed
+DEMO_STAMP := $(VENV)/.installed-demo
 TORCH_CPU := torch==2.13.0
 export PYOPENGL_PLATFORM ?= egl
 
@@ -14,14 +15,19 @@ $(PY):
 	$(PYTHON) -m venv $(VENV)
 	$(PIP) install --quiet --upgrade pip
 
-# The pinned CPU build of torch first: a bare `torch` requirement would pull a CUDA build.
-# The rllib extra (Ray RLlib) is installed too: its smoke test runs in CI.
+# The demo needs the environment and the scripted agents only: no torch, no Ray.
+$(DEMO_STAMP): pyproject.toml | $(PY)
+	$(PIP) install --quiet -e .
+	touch $(DEMO_STAMP)
+
+# Everything, for the tests: the pinned CPU build of torch first (a bare `torch` requirement
+# would pull a CUDA build), then the dev and rllib extras (the RLlib smoke test runs in CI).
 $(STAMP): pyproject.toml | $(PY)
 	$(PIP) install --quiet $(TORCH_CPU)
 	$(PIP) install --quiet -e '.[dev,rllib]'
-	touch $(STAMP)
+	touch $(STAMP) $(DEMO_STAMP)
 
-demo: $(STAMP)
+demo: $(DEMO_STAMP)
 	$(PY) scripts/demo.py --out out/demo
 
 test: $(STAMP)
