@@ -49,7 +49,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -59,28 +59,13 @@ from numpy.typing import NDArray
 
 from modeling.observation import FloorObservation
 from modeling.stereo.matching import StereoMatches, match_candidates, match_segments
-from modeling.stereo.pipeline import to_gray
 from modeling.stereo.rig import HeadPose, StereoRig
 from modeling.stereo.segments import ImageSegments, extract_segment_pair
 from modeling.stereo.triangulation import triangulate_to_floor
 from modeling.types import FloatArray
+from stereo_nav_env.perception.noise import normal_noisy_grey
 from stereo_nav_env.rendering.renderer import StereoRenderer
-from stereo_nav_env.sim.scenes import ObstacleKind, Scene, generate_scene
-
-HEAD_HEIGHT_M = 0.8
-"""Height of the left optical centre above the floor in every view, metres."""
-FAMILIES = ("room", "corridor", "cluttered", "office")
-"""Scene families, cycled over the seeded scenes."""
-
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class SceneView:
-    """One view to measure: a scene, the head pose, its family, whether it faces a bookshelf."""
-
-    scene: Scene
-    pose: HeadPose
-    family: str
-    bookshelf_view: bool
+from stereo_nav_env.sim.views import SceneView, scene_views
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -121,39 +106,6 @@ class ViewResult:
     nees: tuple[float, ...] = ()
     outline_z_correct: tuple[float, ...] = ()
     nees_correct: tuple[float, ...] = ()
-
-
-def scene_views(n_scenes: int, seed: int = 0) -> Iterator[SceneView]:
-    """The views of ``n_scenes`` seeded scenes, cycling :data:`FAMILIES`.
-
-    Each scene gives the view from its start pose and, if it has a bookshelf, a view of the
-    bookshelf's front from 1.6 to 3.2 m (up to 20 tries to find a free spot).
-    """
-    rng = np.random.default_rng(seed)
-    for i in range(n_scenes):
-        family = FAMILIES[i % len(FAMILIES)]
-        scene = generate_scene(seed + i, family=family)
-        x, y, h = scene.start
-        pose = HeadPose(x_m=x, y_m=y, heading_rad=h, height_m=HEAD_HEIGHT_M)
-        yield SceneView(scene=scene, pose=pose, family=family, bookshelf_view=False)
-        shelves = [o for o in scene.obstacles if o.kind is ObstacleKind.BOOKSHELF]
-        for _ in range(20):
-            if not shelves:
-                break
-            ob = shelves[int(rng.integers(len(shelves)))]
-            fp = ob.footprint
-            a, b = fp[0], fp[1]
-            e = b - a
-            normal = np.array([e[1], -e[0]]) / np.linalg.norm(e)  # outward, front side
-            dist = rng.uniform(1.6, 3.2)
-            lateral = rng.uniform(-0.3, 0.3) * np.linalg.norm(e)
-            p = (a + b) / 2 + normal * dist + lateral * e / np.linalg.norm(e)
-            if not scene.is_free(p, 0.5, 0.0):
-                continue
-            heading = math.atan2(-normal[1], -normal[0]) + rng.uniform(-0.25, 0.25)
-            pose = HeadPose(x_m=p[0], y_m=p[1], heading_rad=heading, height_m=HEAD_HEIGHT_M)
-            yield SceneView(scene=scene, pose=pose, family=family, bookshelf_view=True)
-            break
 
 
 def true_disparity(depth: FloatArray, rig: StereoRig, uv: FloatArray, half: int = 1) -> FloatArray:
@@ -288,14 +240,6 @@ def outline_errors(
     return z_scores, nees, z_ok, nees_ok
 
 
-def noisy_gray(
-    image: NDArray[np.uint8], rng: np.random.Generator, sigma: float
-) -> NDArray[np.uint8]:
-    """The grey image of an RGB image plus rounded Gaussian noise of ``sigma`` grey levels."""
-    g = to_gray(image).astype(np.float64)
-    return np.clip(np.rint(g + rng.normal(0, sigma, g.shape)), 0, 255).astype(np.uint8)
-
-
 def run_stereo(
     gl: NDArray[np.uint8], gr: NDArray[np.uint8], rig: StereoRig, pose: HeadPose, repeats: int
 ) -> tuple[ImageSegments, ImageSegments, StereoMatches, FloorObservation, list[float]]:
@@ -415,8 +359,8 @@ def evaluate_view(
     left, right = renderer.render_stereo(pose)
     render_ms = (time.perf_counter() - t0) * 1e3
     depth = renderer.render_depth(pose)
-    gl = noisy_gray(left, rng, noise_sigma)
-    gr = noisy_gray(right, rng, noise_sigma)
+    gl = normal_noisy_grey(left, rng, noise_sigma)
+    gr = normal_noisy_grey(right, rng, noise_sigma)
     sl, sr, matches, obs, (extract_ms, match_ms, triangulate_ms) = run_stereo(
         gl, gr, rig, pose, repeats
     )
@@ -493,7 +437,7 @@ def evaluate(
     """Measure every view of ``n_scenes`` seeded scenes (:func:`scene_views`).
 
     Args:
-        n_scenes: Scenes generated, cycling :data:`FAMILIES`.
+        n_scenes: Scenes generated, cycling the standard families.
         seed: Seed of the scenes, the bookshelf views and (offset by 12345) the pixel noise.
         noise_sigma: Pixel noise, grey levels.
         sgbm: Also run and measure OpenCV's StereoSGBM on each pair.

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 from scipy.special import ndtri
 
 from modeling.jit import compiled_on_first_call
+from modeling.stereo.pipeline import to_gray
 from modeling.types import UInt8Image
 
 __all__ = [
@@ -27,6 +28,7 @@ __all__ = [
     "noise_of_levels_reference",
     "noisy_grey",
     "noisy_grey_reference",
+    "normal_noisy_grey",
 ]
 
 _NOISE_LEVELS = 1 << 16
@@ -158,3 +160,11 @@ def add_pixel_noise(image: UInt8Image, noise: NDArray[np.int16] | None) -> UInt8
     if image.ndim == 3:
         noise = cast(NDArray[np.int16], cv2.merge([noise, noise, noise]))
     return cast(UInt8Image, cv2.add(image, noise, dtype=cv2.CV_8U))
+
+
+def normal_noisy_grey(image: UInt8Image, rng: np.random.Generator, sigma: float) -> UInt8Image:
+    """The grey image of an RGB ``image`` plus rounded Gaussian noise of ``sigma`` grey levels
+    drawn with ``rng.normal`` (the measuring tools' noise; the env draws through the quantile
+    table of :func:`noisy_grey` instead)."""
+    g = to_gray(image).astype(np.float64)
+    return np.clip(np.rint(g + rng.normal(0, sigma, g.shape)), 0, 255).astype(np.uint8)
