@@ -41,7 +41,7 @@ SECTIONS = {
 """The benchmark sections: ``scripts/bench_<name>.py``, with their titles."""
 
 SUMMARY = [
-    ("env steps per second (`StereoNav-v0`, default configuration)", "env_steps_per_s", ""),
+    ("env steps per second (`StereoNav-v0`, every stage: memory on)", "env_steps_per_s", ""),
     ("env step, median", "env_step_ms", " ms"),
     ("stereo pair render (320x240) alone, same poses, median", "env_render_pair_ms", " ms"),
     ("modeling (`build_model`) within a step, median", "env_stage_modeling_ms", " ms"),
