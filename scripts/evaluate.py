@@ -1,10 +1,14 @@
 """Evaluate agents on the fixed, seeded scene suite; print a Markdown table; write JSON, a plot.
 
-    python scripts/evaluate.py --agent NAME [--agent NAME ...] [--episodes N] [--seed S]
+    python scripts/evaluate.py --agent NAME [--agent NAME ...] [--episodes N] [--split dev|test]
+        [--seed S]
         [--json FILE] [--markdown FILE] [--plot FILE] [--details FILE] [--scenario FAMILY]
         [--families F [F ...]] [--max-steps N] [--workers K] [--terminate-on-collision]
         [--perception P] [--tilt RAD] [--fused-range M] [--ground-lines]
 
+``--split dev`` (the default: seed 0 unless ``--seed``) runs suite seeds for tuning and diagnosis;
+``--split test`` (seed 900000 unless ``--seed``) runs the seeds reserved for reported figures,
+which nothing is tuned on (docs/evaluation.md). A ``--seed`` of the other split is refused.
 The Markdown table is always printed; each file option writes its file, none by default. The suite
 runs under the StereoNav-v1 rules; each agent's JSON entry records them ("rules") and
 carries 95 % bootstrap intervals of its rates (keys ending in "_ci").
@@ -24,11 +28,14 @@ from typing import Any
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
 from agents.evaluation.suite import (
+    Split,
     SuiteConfig,
+    default_seed,
     episode_records,
     evaluate,
     markdown_table,
     plot_summary,
+    split_of,
     suite_rules,
     summarize,
 )
@@ -39,7 +46,13 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--agent", action="append", required=True, help="agent name (repeat)")
     parser.add_argument("--episodes", type=int, default=32, help="episodes per agent")
-    parser.add_argument("--seed", type=int, default=0, help="suite seed")
+    parser.add_argument(
+        "--split",
+        choices=[s.value for s in Split],
+        default=Split.DEV.value,
+        help="dev (tuning, the default) or test (reported figures only)",
+    )
+    parser.add_argument("--seed", type=int, default=None, help="suite seed (within the split)")
     parser.add_argument("--json", type=pathlib.Path, help="summary JSON file (default: none)")
     parser.add_argument("--markdown", type=pathlib.Path, help="Markdown table file")
     parser.add_argument("--plot", type=pathlib.Path, help="bar plot (PNG)")
@@ -82,12 +95,15 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
+    seed = default_seed(args.split) if args.seed is None else args.seed
+    if seed >= 0 and split_of(seed).value != args.split:
+        parser.error(f"--seed {seed} is a {split_of(seed).value} seed, not of --split {args.split}")
 
     families = [args.scenario] if args.scenario is not None else args.families
     kw = {} if families is None else {"families": tuple(families)}
     cfg = SuiteConfig(
         episodes=args.episodes,
-        seed=args.seed,
+        seed=seed,
         max_steps=args.max_steps,
         env_kwargs={
             "diagnostics": False,
@@ -117,6 +133,8 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, Any]]:
     rules = suite_rules(cfg)
     for figures in summary.values():
         figures["rules"] = rules
+        figures["split"] = split_of(cfg.seed).value
+        figures["suite_seed"] = cfg.seed
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(summary, indent=2) + "\n")

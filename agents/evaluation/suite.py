@@ -35,23 +35,29 @@ import pathlib
 import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from enum import Enum
 from typing import Any
 
 import numpy as np
 
 __all__ = [
     "CI_KEYS",
+    "EPISODE_STRIDE",
     "SUMMARY_KEYS",
+    "TEST_SEED_START",
     "EpisodeResult",
     "EpisodeSpec",
+    "Split",
     "SuiteConfig",
     "bootstrap_ci",
+    "default_seed",
     "env_config",
     "episode_records",
     "evaluate",
     "markdown_table",
     "plot_summary",
     "run_episode",
+    "split_of",
     "suite_env_config",
     "suite_episodes",
     "suite_rules",
@@ -99,13 +105,43 @@ def bootstrap_ci(
     return [float(res.confidence_interval.low), float(res.confidence_interval.high)]
 
 
+class Split(str, Enum):
+    """Which suite seeds an evaluation may use (docs/evaluation.md, "Dev and test splits").
+
+    ``dev`` seeds (below :data:`TEST_SEED_START`) are for tuning and diagnosis; ``test`` seeds
+    (from it on) are reserved for the figures a report gives, and nothing is tuned on them. With
+    at most :data:`EPISODE_STRIDE` episodes per suite seed, the two splits' episodes (reset seeds
+    ``seed * EPISODE_STRIDE + i``) never meet.
+    """
+
+    DEV = "dev"
+    TEST = "test"
+
+
+EPISODE_STRIDE = 100_000
+"""Episode ``i`` of suite seed ``S`` resets with ``S * EPISODE_STRIDE + i`` (``i`` below it)."""
+TEST_SEED_START = 900_000
+"""The first suite seed of the test split; every smaller one is a dev seed."""
+
+
+def split_of(seed: int) -> Split:
+    """The split suite seed ``seed`` belongs to."""
+    return Split.TEST if seed >= TEST_SEED_START else Split.DEV
+
+
+def default_seed(split: Split | str) -> int:
+    """The suite seed a split runs when none is given: 0 (dev), :data:`TEST_SEED_START` (test)."""
+    return TEST_SEED_START if Split(split) is Split.TEST else 0
+
+
 @dataclass(frozen=True, slots=True, kw_only=True)
 class SuiteConfig:
     """The evaluation suite.
 
     Attributes:
         episodes: Episodes per agent.
-        seed: Suite seed (episode ``i`` resets with ``seed * 100_000 + i``).
+        seed: Suite seed (episode ``i`` resets with ``seed * 100_000 + i``); below
+            :data:`TEST_SEED_START` for the dev split, from it on for the test split.
         families: Scene families, cycled (see ``stereo_nav_env.sim.scenes.FAMILIES``).
         max_steps: Steps at most per episode.
         env_kwargs: Keyword arguments of ``gym.make(ENV_ID, ...)`` besides ``scenario``.
@@ -134,6 +170,8 @@ class SuiteConfig:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
+        if self.episodes > EPISODE_STRIDE:
+            raise ValueError(f"episodes must be at most {EPISODE_STRIDE}, got {self.episodes}")
         fams = tuple(self.families)
         if not fams or any(f not in FAMILIES for f in fams):
             raise ValueError(f"families must be a non-empty subset of {list(FAMILIES)}, got {fams}")
@@ -224,7 +262,9 @@ def suite_episodes(cfg: SuiteConfig) -> list[EpisodeSpec]:
     """The episodes of the suite, in order."""
     return [
         EpisodeSpec(
-            index=i, family=cfg.families[i % len(cfg.families)], seed=cfg.seed * 100_000 + i
+            index=i,
+            family=cfg.families[i % len(cfg.families)],
+            seed=cfg.seed * EPISODE_STRIDE + i,
         )
         for i in range(cfg.episodes)
     ]

@@ -116,3 +116,42 @@ def test_summary_table_and_plot(tmp_path) -> None:
     )
     png = plot_summary(summary, tmp_path / "bars.png")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_dev_and_test_splits_never_share_an_episode() -> None:
+    from agents.evaluation.suite import (
+        EPISODE_STRIDE,
+        TEST_SEED_START,
+        Split,
+        default_seed,
+        split_of,
+    )
+
+    last_dev = SuiteConfig(episodes=EPISODE_STRIDE, seed=TEST_SEED_START - 1)
+    first_test = SuiteConfig(episodes=EPISODE_STRIDE, seed=TEST_SEED_START)
+    dev_seeds = [spec.seed for spec in suite_episodes(last_dev)]
+    test_seeds = [spec.seed for spec in suite_episodes(first_test)]
+    assert max(dev_seeds) < min(test_seeds)  # every dev suite seed is below, every test one above
+    assert split_of(0) is Split.DEV and split_of(TEST_SEED_START - 1) is Split.DEV
+    assert split_of(default_seed("test")) is Split.TEST and default_seed("dev") == 0
+    with pytest.raises(ValueError, match="episodes must be at most"):
+        SuiteConfig(episodes=EPISODE_STRIDE + 1)
+
+
+def test_evaluate_cli_runs_the_split_and_refuses_a_seed_of_the_other(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import pathlib
+
+    from agents.evaluation.suite import TEST_SEED_START
+
+    monkeypatch.syspath_prepend(str(pathlib.Path(__file__).resolve().parents[3] / "scripts"))
+    from evaluate import suite_config
+
+    assert suite_config(["--agent", "planner"]).seed == 0
+    assert suite_config(["--agent", "planner", "--split", "test"]).seed == TEST_SEED_START
+    assert suite_config(["--agent", "planner", "--seed", "4242"]).seed == 4242
+    with pytest.raises(SystemExit):
+        suite_config(["--agent", "planner", "--split", "test", "--seed", "0"])
+    with pytest.raises(SystemExit):
+        suite_config(["--agent", "planner", "--seed", str(TEST_SEED_START)])
