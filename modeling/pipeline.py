@@ -15,9 +15,9 @@ from numpy.typing import NDArray
 
 from modeling.model.build import ModelOptions, build_model
 from modeling.model.records import EnvironmentModel
-from modeling.stereo.pipeline import STEREO_STAGES, option_fields, stereo_to_floor
+from modeling.stereo.pipeline import STEREO_STAGES, stereo_to_floor
 from modeling.stereo.rig import HeadPose, StereoRig
-from modeling.validation import positive, reject_unknown, with_overrides
+from modeling.validation import field_names, positive, reject_unknown, with_overrides
 
 __all__ = ["model_from_stereo"]
 
@@ -53,9 +53,9 @@ def model_from_stereo(
             (naming it).
     """
     positive(robot_width_m, "robot_width_m")  # fail before the stereo work
-    model_keys = option_fields(ModelOptions)
+    model_keys = frozenset(field_names(ModelOptions))
     known = model_keys.union(
-        {"close_faces", "ground_lines"}, *(option_fields(c) for c in STEREO_STAGES.values())
+        {"close_faces", "ground_lines"}, *(field_names(c) for c in STEREO_STAGES.values())
     )
     reject_unknown(kw, known, "model_from_stereo")
     model_options = with_overrides(

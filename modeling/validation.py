@@ -166,7 +166,8 @@ def reject_unknown(given: Iterable[Any], known: Iterable[str], what: str = "") -
     raise ValueError(f"unknown {label} {unknown}{hint}; known: {names}")
 
 
-def _field_names(cls: type[Any]) -> tuple[str, ...]:
+def field_names(cls: type[Any]) -> tuple[str, ...]:
+    """The field names of the dataclass ``cls``, in order."""
     return tuple(f.name for f in dataclasses.fields(cls))
 
 
@@ -202,7 +203,7 @@ def _with_overrides(options: T | None, cls: type[T], overrides: Mapping[str, Any
         raise ValueError(f"options must be a {cls.__name__}, got {type(options).__name__}")
     if not overrides:
         return base
-    reject_unknown(overrides, _field_names(cls), cls.__name__)
+    reject_unknown(overrides, field_names(cls), cls.__name__)
     return dataclasses.replace(base, **overrides)  # type: ignore[type-var]
 
 
@@ -239,7 +240,7 @@ def from_flat(cls: type[T], kwargs: Mapping[str, Any], *, what: str | None = Non
     label = what or cls.__name__
     nested = _nested(cls)
     owner = {leaf: key for key, sub in nested.items() for leaf in _leaves(sub)}
-    own = set(_field_names(cls)) - set(nested)
+    own = set(field_names(cls)) - set(nested)
     reject_unknown(kwargs, own | set(nested) | set(owner), label)
     top: dict[str, Any] = {}
     parts: dict[str, dict[str, Any]] = {key: {} for key in nested}

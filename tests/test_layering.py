@@ -36,15 +36,19 @@ PACKAGES = ("modeling", "stereo_nav_env", "agents")
 """The project's packages; scripts/ holds programs that import them."""
 
 
-def _imported_roots(path: pathlib.Path) -> set[str]:
-    tree = ast.parse(path.read_text(), filename=str(path))
-    roots: set[str] = set()
-    for node in ast.walk(tree):
+def _import_targets(path: pathlib.Path) -> list[tuple[str, list[str]]]:
+    """``(module, names)`` of each absolute import in ``path`` (``import a.b``: no names)."""
+    targets: list[tuple[str, list[str]]] = []
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
         if isinstance(node, ast.Import):
-            roots.update(alias.name.split(".")[0] for alias in node.names)
+            targets += [(alias.name, []) for alias in node.names]
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            roots.add(node.module.split(".")[0])
-    return roots
+            targets.append((node.module, [alias.name for alias in node.names]))
+    return targets
+
+
+def _imported_roots(path: pathlib.Path) -> set[str]:
+    return {module.split(".")[0] for module, _ in _import_targets(path)}
 
 
 def _private_imports(path: pathlib.Path, own: str) -> list[str]:
@@ -57,22 +61,13 @@ def _private_imports(path: pathlib.Path, own: str) -> list[str]:
     def private(name: str) -> bool:
         return name.startswith("_") and not name.endswith("__")
 
-    tree = ast.parse(path.read_text(), filename=str(path))
     found: list[str] = []
-    for node in ast.walk(tree):
-        targets: list[tuple[str, list[str]]]
-        if isinstance(node, ast.Import):
-            targets = [(alias.name, []) for alias in node.names]
-        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            targets = [(node.module, [alias.name for alias in node.names])]
-        else:
+    for module, names in _import_targets(path):
+        parts = module.split(".")
+        if parts[0] not in PACKAGES or parts[0] == own:
             continue
-        for module, names in targets:
-            parts = module.split(".")
-            if parts[0] not in PACKAGES or parts[0] == own:
-                continue
-            if any(private(p) for p in parts) or any(private(n) for n in names):
-                found.append(f"{module}: {', '.join(names)}" if names else module)
+        if any(private(p) for p in parts) or any(private(n) for n in names):
+            found.append(f"{module}: {', '.join(names)}" if names else module)
     return found
 
 
@@ -151,15 +146,13 @@ the floor observation, the simulator knows nothing of what perceives or draws it
 
 
 def _imported_modules(path: pathlib.Path) -> set[str]:
-    tree = ast.parse(path.read_text(), filename=str(path))
-    found: set[str] = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            found.update(alias.name for alias in node.names)
-        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            found.add(node.module)
-            found.update(f"{node.module}.{alias.name}" for alias in node.names)
-    return found
+    """The modules ``path`` imports, and ``module.name`` of each name it imports from one (a
+    ``from modeling import model`` imports the module ``modeling.model``)."""
+    return {
+        dotted
+        for module, names in _import_targets(path)
+        for dotted in (module, *(f"{module}.{name}" for name in names))
+    }
 
 
 @pytest.mark.parametrize(("folder", "forbidden"), sorted(SUBPACKAGE_FORBIDDEN.items()))
@@ -182,24 +175,13 @@ def _module_name(path: pathlib.Path) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
-def _imported_module_paths(path: pathlib.Path) -> set[str]:
-    """The dotted modules ``path`` imports (``import a.b``, ``from a.b import c``: ``a.b``)."""
-    found: set[str] = set()
-    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
-        if isinstance(node, ast.Import):
-            found.update(alias.name for alias in node.names)
-        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            found.add(node.module)
-    return found
-
-
 def test_private_modules_are_imported_only_inside_their_own_subpackage() -> None:
     """``X._kernels`` (or any ``X._private`` module) is imported only by modules of ``X``."""
     bad = []
     for package in PACKAGES:
         for path in (ROOT / package).rglob("*.py"):
             importer = _module_name(path)
-            for module in _imported_module_paths(path):
+            for module, _ in _import_targets(path):
                 parts = module.split(".")
                 if parts[0] not in PACKAGES:
                     continue

@@ -9,7 +9,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -25,9 +24,9 @@ from modeling.stereo.matching import MatchOptions, match_segments
 from modeling.stereo.rig import HeadPose, StereoRig
 from modeling.stereo.segments import SegmentOptions, extract_segment_pair
 from modeling.stereo.triangulation import TriangulationOptions, triangulate_to_floor
-from modeling.validation import instance, reject_unknown, with_overrides
+from modeling.validation import field_names, instance, reject_unknown, with_overrides
 
-__all__ = ["STEREO_STAGES", "option_fields", "route_options", "stereo_to_floor", "to_gray"]
+__all__ = ["STEREO_STAGES", "route_options", "stereo_to_floor", "to_gray"]
 
 
 # Each stage's options dataclass, by stage name. A flat keyword goes to every stage that has a
@@ -41,11 +40,6 @@ STEREO_STAGES: dict[str, type[Any]] = {
 }
 
 
-def option_fields(cls: type[Any]) -> frozenset[str]:
-    """The field names of the options dataclass ``cls``."""
-    return frozenset(f.name for f in dataclasses.fields(cls))
-
-
 def route_options(kw: Mapping[str, Any], stages: Mapping[str, type[Any]]) -> dict[str, Any]:
     """One options instance per stage from flat keywords (each key to every stage naming it).
 
@@ -54,9 +48,9 @@ def route_options(kw: Mapping[str, Any], stages: Mapping[str, type[Any]]) -> dic
             all the known ones, :func:`~modeling.validation.reject_unknown`), or a bad
             value (the dataclass names it).
     """
-    reject_unknown(kw, frozenset().union(*(option_fields(cls) for cls in stages.values())))
+    reject_unknown(kw, frozenset().union(*(field_names(cls) for cls in stages.values())))
     return {
-        name: with_overrides(None, cls, {k: v for k, v in kw.items() if k in option_fields(cls)})
+        name: with_overrides(None, cls, {k: v for k, v in kw.items() if k in field_names(cls)})
         for name, cls in stages.items()
     }
 
