@@ -11,6 +11,10 @@
 ``ppo:PATH``   a stable-baselines3 PPO model saved at ``PATH`` (torch imported only then)
 ``rllib:PATH`` an RLlib checkpoint folder at ``PATH`` (``train.py --backend rllib``; ray
                imported only then)
+``learned``    the policy shipped with the package, trained by imitation of the planner
+               (``docs/training.md``; torch imported only then); ``learned:PATH`` a
+               ``policy.pt`` of ``train.py --teacher planner``; ``learned-fixed-head`` (and
+               ``learned-fixed-head:PATH``) the same with the head held straight ahead
 =============  ===============================================================================
 
 The package: :mod:`.base` (the :class:`Agent` interface and what agents read from the env),
@@ -28,7 +32,19 @@ from agents.base import Agent, is_look
 
 __all__ = ["AGENT_NAMES", "Agent", "is_look", "make_agent"]
 
-AGENT_NAMES = ("random", "greedy", "cautious", "planner", "oracle", "ppo:PATH", "rllib:PATH")
+AGENT_NAMES = (
+    "random",
+    "greedy",
+    "cautious",
+    "planner",
+    "oracle",
+    "learned",
+    "learned-fixed-head",
+    "learned:PATH",
+    "learned-fixed-head:PATH",
+    "ppo:PATH",
+    "rllib:PATH",
+)
 
 _REGISTRY: dict[str, tuple[str, str, bool]] = {
     "random": ("agents.baselines", "RandomAgent", False),
@@ -38,6 +54,10 @@ _REGISTRY: dict[str, tuple[str, str, bool]] = {
     "planner": ("agents.planning.navigator", "ModelBasedAgent", True),
     "ppo:": ("agents.learning.ppo", "PPOAgent", True),
     "rllib:": ("agents.learning.rllib.agent", "RLlibAgent", True),
+    "learned": ("agents.learning.learned", "LearnedAgent", False),
+    "learned:": ("agents.learning.learned", "LearnedAgent", True),
+    "learned-fixed-head": ("agents.learning.learned", "FixedHeadLearnedAgent", False),
+    "learned-fixed-head:": ("agents.learning.learned", "FixedHeadLearnedAgent", True),
 }
 """Name (or ``prefix:``) -> (module, class, whether the class takes the name's argument first:
 the policy for the model-based agents, the path for the trained ones). Modules are imported on

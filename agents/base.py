@@ -176,12 +176,14 @@ def control_limits(env: Any) -> ControlLimits:
 
 
 def model_of(env: Any, info: dict[str, Any]) -> EnvironmentModel:
-    """The environment model of the latest observation: ``info["model"]`` (the env's contract).
+    """The environment model of the latest observation: ``info["model"]`` (the env's contract),
+    or ``env.unwrapped.model`` when the env leaves the models out of ``info``
+    (``info_models=False``).
 
     Raises:
-        ValueError: When ``info`` holds no model.
+        ValueError: When neither holds a model.
     """
-    model = info.get("model")
+    model = info["model"] if "model" in info else getattr(env.unwrapped, "model", None)
     if not isinstance(model, EnvironmentModel):
         raise ValueError(f"info['model'] must be an EnvironmentModel, got {type(model).__name__}")
     return model

@@ -1,9 +1,19 @@
-"""Training throughput: RLlib PPO on 1 and 2 env runners against stable-baselines3 on 1 and 2 envs.
+"""Training throughput: the learning loop against the env's own steps per second.
 
-    python scripts/bench_training.py [--timesteps N] [--rollout-steps N] [--scenario NAME]
-        [--perception stereo|surrogate] [--json FILE] [--out DIR]
+    python scripts/bench_training.py [--learner imitation|backends] [--timesteps N]
+        [--n-envs K] [--rollout-steps N] [--scenario NAME] [--perception stereo|surrogate]
+        [--json FILE] [--out DIR]
 
-All four runs happen in this one process, one after the other, on the env kwargs that
+``--learner imitation`` (the default) measures the imitation recipe of ``train.py --teacher
+planner`` (:mod:`agents.learning.imitation`), surrogate perception by default, ``--n-envs`` env
+processes (2): first the recipe's own vector env alone, stepped with the teacher's actions for
+``--timesteps`` steps (``raw_env_steps_per_s``: the envs, the teacher's labels and the
+observation, no learner), then the recipe itself on the same number of steps with its
+proportions (40 % demonstrations, three DAgger rounds of 20 %, the same epochs; set-up, every
+fit and the saving included: ``loop_steps_per_s``); ``loop_over_raw_env`` is their ratio.
+
+``--learner backends`` compares RLlib PPO on 1 and 2 env runners against stable-baselines3 on 1
+and 2 envs (docs/rllib.md). All four runs happen in this one process, one after the other, on the env kwargs that
 ``scripts/train.py`` builds (``scenario``, ``perception``, ``diagnostics=False``,
 ``memory=False``) and with :class:`~agents.learning.training.TrainConfig`'s PPO settings (the
 rollout of ``rollout_steps`` over all envs or runners, minibatch, epochs, ``net_arch``) but
@@ -31,6 +41,7 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 from _figures import print_figures, write_figures
 
 import stereo_nav_env  # noqa: F401  (registers the ids)
+from agents.learning.imitation import ImitationConfig, train_imitation, training_vector_env
 from agents.learning.rllib.backend import RLlibOptions, train_rllib
 from agents.learning.training import TrainConfig, train_ppo
 
@@ -84,6 +95,61 @@ def measure(args: argparse.Namespace, work: pathlib.Path) -> dict[str, float]:
     return figures
 
 
+def measure_imitation(args: argparse.Namespace, work: pathlib.Path) -> dict[str, float]:
+    """The raw env and the imitation loop on ``args.timesteps`` steps each (module docstring)."""
+    import numpy as np
+
+    steps = int(args.timesteps)
+    cfg = ImitationConfig(
+        out_dir=work / "imitation",
+        n_envs=args.n_envs,
+        demo_steps=max(1, round(0.4 * steps)),
+        rounds=3,
+        round_steps=max(1, round(0.2 * steps)),
+        env_kwargs={"perception": args.perception, "diagnostics": False},
+        progress=False,
+    )
+    venv = training_vector_env(cfg)
+    try:
+        _, info = venv.reset(seed=list(range(cfg.n_envs)))
+        t0 = time.perf_counter()
+        taken = 0
+        while taken < steps:
+            action = np.asarray(info["teacher_action"], dtype=np.float32)
+            _, _, _, _, info = venv.step(action)
+            taken += cfg.n_envs
+        raw = taken / (time.perf_counter() - t0)
+    finally:
+        venv.close()
+    result = train_imitation(cfg)
+    loop = result.steps / (result.minutes * 60.0)
+    print(f"raw env: {raw:.1f} steps/s; imitation loop: {loop:.1f} steps/s", flush=True)
+    return {
+        "n_envs": float(cfg.n_envs),
+        "raw_env_steps": float(taken),
+        "raw_env_steps_per_s": raw,
+        "loop_steps": float(result.steps),
+        "loop_wall_s": result.minutes * 60.0,
+        "loop_steps_per_s": loop,
+        "loop_over_raw_env": loop / raw,
+    }
+
+
+def markdown_imitation(figures: dict[str, float]) -> str:
+    """The table of docs/training.md."""
+    return "\n".join(
+        [
+            "| what | env processes | env steps | steps/s |",
+            "| --- | ---: | ---: | ---: |",
+            f"| the env alone (teacher's actions) | {figures['n_envs']:.0f} "
+            f"| {figures['raw_env_steps']:.0f} | {figures['raw_env_steps_per_s']:.1f} |",
+            f"| the imitation loop (collect + fit) | {figures['n_envs']:.0f} "
+            f"| {figures['loop_steps']:.0f} | {figures['loop_steps_per_s']:.1f} |",
+            f"| ratio | | | {figures['loop_over_raw_env']:.2f} |",
+        ]
+    )
+
+
 def markdown(figures: dict[str, float]) -> str:
     """The table of docs/rllib.md."""
     lines = [
@@ -107,29 +173,45 @@ def markdown(figures: dict[str, float]) -> str:
 def main(argv: list[str] | None = None) -> dict[str, float]:
     """Parse the arguments, measure, print (and write) the figures."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--timesteps", type=int, default=1024, help="env steps per run")
+    parser.add_argument(
+        "--learner",
+        choices=("imitation", "backends"),
+        default="imitation",
+        help="the imitation loop against its env, or the PPO backends",
+    )
+    parser.add_argument("--timesteps", type=int, default=None, help="env steps per run")
+    parser.add_argument("--n-envs", type=int, default=2, help="imitation: env processes")
     parser.add_argument(
         "--rollout-steps", type=int, default=512, help="PPO rollout steps over all envs"
     )
-    parser.add_argument("--scenario", default="open", help="map name or scene family")
+    parser.add_argument("--scenario", default="open", help="backends: map or scene family")
     parser.add_argument(
-        "--perception", choices=("stereo", "surrogate"), default="stereo", help="env perception"
+        "--perception",
+        choices=("stereo", "surrogate"),
+        default=None,
+        help="env perception (imitation: surrogate, backends: stereo by default)",
     )
     parser.add_argument("--json", type=pathlib.Path, help="write the figures here")
     parser.add_argument("--out", type=pathlib.Path, help="training outputs (default: a temp dir)")
     args = parser.parse_args(argv)
+    imitation = args.learner == "imitation"
+    if args.timesteps is None:
+        args.timesteps = 10_000 if imitation else 1024
+    if args.perception is None:
+        args.perception = "surrogate" if imitation else "stereo"
+    run = measure_imitation if imitation else measure
     load_before = os.getloadavg()
     if args.out is not None:
-        figures = measure(args, args.out)
+        figures = run(args, args.out)
     else:
         with tempfile.TemporaryDirectory() as tmp:
-            figures = measure(args, pathlib.Path(tmp))
+            figures = run(args, pathlib.Path(tmp))
     load_after = os.getloadavg()
     figures["cpu_count"] = float(os.cpu_count() or 0)
     figures["load_1min_before"], figures["load_1min_after"] = load_before[0], load_after[0]
     print_figures(figures)
     print()
-    print(markdown(figures))
+    print(markdown_imitation(figures) if imitation else markdown(figures))
     print(
         f"\nload average (1, 5, 15 min) before: {load_before[0]:.2f} {load_before[1]:.2f} "
         f"{load_before[2]:.2f}; after: {load_after[0]:.2f} {load_after[1]:.2f} {load_after[2]:.2f}"

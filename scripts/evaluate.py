@@ -13,7 +13,8 @@ The Markdown table is always printed; each file option writes its file, none by 
 runs under the StereoNav-v1 rules; each agent's JSON entry records them ("rules") and
 carries 95 % bootstrap intervals of its rates (keys ending in "_ci").
 
-Agent names: random, greedy, cautious, planner, oracle, ppo:PATH, rllib:PATH. The logic is in
+Agent names: random, greedy, cautious, planner, oracle, learned (the shipped policy),
+learned-fixed-head, learned:PATH, learned-fixed-head:PATH, ppo:PATH, rllib:PATH. The logic is in
 :mod:`agents.evaluation.suite`.
 """
 

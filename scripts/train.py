@@ -1,10 +1,21 @@
-"""Train PPO (stable-baselines3; or sb3-contrib's RecurrentPPO) on StereoNav-v1.
+"""Train a policy on StereoNav-v1: by imitation of the planner, or with PPO.
+
+    python scripts/train.py --teacher planner --out DIR [--seed S] [--n-envs K]
+        [--perception surrogate|stereo] [--demo-steps N] [--rounds R] [--round-steps N]
+        [--epochs E]
 
     python scripts/train.py --timesteps N --out DIR [--algo ppo|recurrent-ppo] [--n-envs K]
         [--perception stereo|surrogate] [--scenario NAME] [--curriculum [FAMILY ...]]
         [--curriculum-threshold P] [--resume CHECKPOINT] [--eval-freq N] [--checkpoint-freq N]
         [--seed S] [--rollout-steps N] [--batch-size N] [--n-epochs N] [--ent-coef C]
         [--max-minutes M] [--backend sb3|rllib] [--num-env-runners N] [--address RAY]
+
+--teacher planner (or greedy, cautious) runs the imitation recipe of docs/training.md
+(:mod:`agents.learning.imitation`): teacher demonstrations on every family of the curriculum,
+behaviour cloning, then DAgger rounds in which the student drives and the teacher, its memory
+rebuilt along the student's trajectory, labels every state. It writes DIR/policy.pt (evaluate it
+as learned:DIR/policy.pt), DIR/record.json and DIR/curve.csv. Its defaults are
+:class:`agents.learning.imitation.ImitationConfig`'s.
 
 --backend rllib trains with Ray RLlib instead (agents.learning.rllib.backend, docs/rllib.md): N env
 runner processes, on a local Ray or on the cluster at --address; it writes DIR/checkpoint/
@@ -26,8 +37,65 @@ import pathlib
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
+from agents.learning.imitation import ImitationConfig, ImitationResult, train_imitation
 from agents.learning.rllib.backend import RLlibOptions, RLlibResult, train_rllib
 from agents.learning.training import ALGOS, CURRICULUM, TrainConfig, TrainResult, train_ppo
+
+TEACHERS = ("planner", "greedy", "cautious")
+
+
+def teacher_of(argv: list[str] | None = None) -> str | None:
+    """The ``--teacher`` of the command line ``argv`` (``None``: PPO)."""
+    parser = argparse.ArgumentParser(add_help=False)
+    parser.add_argument("--teacher", choices=TEACHERS, default=None)
+    args, _ = parser.parse_known_args(argv)
+    teacher: str | None = args.teacher
+    return teacher
+
+
+def imitation_config(argv: list[str] | None = None) -> ImitationConfig:
+    """The :class:`ImitationConfig` of a ``--teacher`` command line ``argv``."""
+    import shlex
+    import sys
+
+    defaults = ImitationConfig(out_dir=pathlib.Path("."))
+    parser = argparse.ArgumentParser(description="imitation of a model-based teacher")
+    parser.add_argument("--teacher", choices=TEACHERS, required=True, help="the teacher")
+    parser.add_argument("--out", type=pathlib.Path, required=True, help="output folder")
+    parser.add_argument("--seed", type=int, default=0, help="seed")
+    parser.add_argument("--n-envs", type=int, default=defaults.n_envs, help="env processes")
+    parser.add_argument(
+        "--perception",
+        choices=("surrogate", "stereo"),
+        default="surrogate",
+        help="the training envs' perception",
+    )
+    parser.add_argument(
+        "--demo-steps", type=int, default=defaults.demo_steps, help="teacher demonstration steps"
+    )
+    parser.add_argument("--rounds", type=int, default=defaults.rounds, help="DAgger rounds")
+    parser.add_argument(
+        "--round-steps", type=int, default=defaults.round_steps, help="env steps per round"
+    )
+    parser.add_argument(
+        "--epochs", type=int, default=defaults.epochs, help="passes over the data per phase"
+    )
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    args = parser.parse_args(argv)
+    words = sys.argv[1:] if argv is None else argv
+    return ImitationConfig(
+        out_dir=args.out,
+        seed=args.seed,
+        teacher=args.teacher,
+        n_envs=args.n_envs,
+        demo_steps=args.demo_steps,
+        rounds=args.rounds,
+        round_steps=args.round_steps,
+        epochs=args.epochs,
+        env_kwargs={"perception": args.perception, "diagnostics": False},
+        command="python scripts/train.py " + shlex.join(words),
+        progress=not args.no_progress,
+    )
 
 
 def _add_backend_arguments(parser: argparse.ArgumentParser) -> None:
@@ -120,8 +188,14 @@ def train_config(argv: list[str] | None = None) -> TrainConfig:
     )
 
 
-def main(argv: list[str] | None = None) -> TrainResult | RLlibResult:
+def main(argv: list[str] | None = None) -> TrainResult | RLlibResult | ImitationResult:
     """Parse the arguments and train; returns what was written."""
+    if teacher_of(argv) is not None:
+        icfg = imitation_config(argv)
+        result = train_imitation(icfg)
+        print(f"policy: {result.policy_path} ({result.steps} env steps, {result.minutes:.1f} min)")
+        print(f"evaluate it: python scripts/evaluate.py --agent learned:{result.policy_path}")
+        return result
     cfg = train_config(argv)
     backend, options = backend_options(argv)
     if backend == "rllib":
@@ -131,12 +205,12 @@ def main(argv: list[str] | None = None) -> TrainResult | RLlibResult:
             f"{rllib.steps_per_s:.1f} steps/s on {options.num_env_runners} env runners)"
         )
         return rllib
-    result = train_ppo(cfg)
-    print(f"model: {result.model_path} ({result.timesteps} timesteps, {result.episodes} episodes)")
-    print(f"learning curve: {result.curve_png}")
-    summary = result.model_path.parent / "summary.json"
+    ppo = train_ppo(cfg)
+    print(f"model: {ppo.model_path} ({ppo.timesteps} timesteps, {ppo.episodes} episodes)")
+    print(f"learning curve: {ppo.curve_png}")
+    summary = ppo.model_path.parent / "summary.json"
     print(f"summary (steps per second, curriculum stages): {summary}")
-    return result
+    return ppo
 
 
 if __name__ == "__main__":

@@ -363,6 +363,11 @@ class EnvConfig:
             for a caller that reads ``info["memory_model"]``; ``False``: off
             (``info["memory_model"]`` is ``None``). Resolved to a bool on construction.
         diagnostics: Whether ``info["diagnostics"]`` compares the model with ground truth.
+        info_models: Whether ``info`` carries the model objects (``"model"``,
+            ``"memory_model"``). ``False`` for a training loop that pickles ``info`` across
+            processes and reads no model there (each is about 25 KiB): the keys are left out and
+            the models stay readable in the env's process as ``env.unwrapped.model`` and
+            ``env.unwrapped.memory_model`` (:func:`agents.base.model_of` falls back to them).
         world: The robot and its physics (:class:`WorldConfig`).
         camera: The stereo camera and its pixel noise (:class:`CameraConfig`).
         observation: What the observation holds (:class:`ObservationConfig`).
@@ -381,6 +386,7 @@ class EnvConfig:
     perception: PerceptionName = PerceptionName.STEREO
     memory: bool | None = None
     diagnostics: bool = True
+    info_models: bool = True
     world: WorldConfig = field(default_factory=WorldConfig)
     camera: CameraConfig = field(default_factory=CameraConfig)
     observation: ObservationConfig = field(default_factory=ObservationConfig)
@@ -403,6 +409,7 @@ class EnvConfig:
         boolean(self.close_faces, "close_faces")
         boolean(self.ground_lines, "ground_lines")
         boolean(self.diagnostics, "diagnostics")
+        boolean(self.info_models, "info_models")
         try:
             perception = PerceptionName(self.perception)
         except ValueError:

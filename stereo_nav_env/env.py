@@ -364,9 +364,13 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
                 fused = (self.memory_model, self.memory, self.memory_options.gate_chi2)
                 diagnostics |= memory_diagnostics(*fused, self.model, self._truth)
         watch.lap("diagnostics")
+        models = (
+            {"model": self.model, "memory_model": self.memory_model}
+            if self.config.info_models
+            else {}
+        )
         return {
-            "model": self.model,
-            "memory_model": self.memory_model,
+            **models,
             "diagnostics": diagnostics,
             "is_success": False,
             "collision": False,

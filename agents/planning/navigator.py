@@ -135,6 +135,15 @@ class ModelBasedAgent(Agent):
         recovery.commanded(forward)
         return np.array([forward, turn, pan])
 
+    def executed(self, action: NDArray[np.floating]) -> None:
+        """Record the command actually sent after this agent's last :meth:`act`, when another
+        policy drove (a teacher relabelling a student's states, ``agents.learning.wrappers``):
+        the bump and stall watches measure the motion that command should have made."""
+        if self._recovery is None:
+            raise RuntimeError("executed() before reset()")
+        sent = np.asarray(action, dtype=np.float64).reshape(-1)
+        self._recovery.commanded(float(np.clip(sent[0], -1.0, 1.0)))
+
     def _plan(self, pose: tuple[float, float, float, float]) -> None:
         """A fresh decision from ``pose``; a look it starts is counted."""
         assert self.core is not None

@@ -1,0 +1,520 @@
+"""Learning from the planner: behaviour cloning, then DAgger rounds (``train.py --teacher``).
+
+The recipe (:func:`train_imitation`, :class:`ImitationConfig`):
+
+1. **Demonstrations.** ``n_envs`` training envs (:func:`agents.learning.wrappers.make_training_env`:
+   the surrogate perception by default, every family of the curriculum mixed, the suite's episode
+   rules) are driven by the teacher (the expected-cost ``planner``); every state it observes is
+   stored with its action.
+2. **Cloning.** :class:`EgoPolicyNet` (a small stride-2 CNN over the egocentric map, an MLP over
+   the features) is fitted to the stored actions. Each of the three commands is predicted as a
+   distribution over ``bins`` values in [-1, 1] (cross-entropy against the target split between
+   its two nearest bins), so "left" and "right" around an obstacle stay two modes instead of
+   averaging to "straight"; the action is the mean of the most probable bin and its two
+   neighbours.
+3. **DAgger rounds** (Ross et al., 2011). The student drives (with probability ``beta`` per step
+   the teacher's action is sent instead); every state the student reaches is labelled with the
+   teacher's action, computed by a teacher whose memory followed the student's trajectory
+   (:class:`~agents.learning.wrappers.PlannerTeacher`); the data are aggregated and the
+   student is trained again.
+
+The envs step in subprocesses (gymnasium's ``AsyncVectorEnv``, ``forkserver``); the policy acts
+on a batch in the main process. ``info`` crosses the pipe without the model objects
+(``info_models=False``).
+
+Outputs in ``out_dir``: ``policy.pt`` (the network's weights and its metadata: observation
+version and geometry, episode rules, bins, the command line, the record), ``record.json`` (per
+phase: steps, episodes, success rate of the driving policy, loss, minutes) and ``curve.csv``
+(per round: cumulative env steps, minutes, the student's success rate while it drove).
+
+torch is imported inside the functions that need it.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import pathlib
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agents.learning.egomap import (
+    CHANNELS,
+    OBSERVATION_VERSION,
+    STATE_FEATURES,
+    EgoMapConfig,
+)
+
+__all__ = [
+    "ImitationConfig",
+    "ImitationResult",
+    "PolicyBundle",
+    "decode_bins",
+    "encode_bins",
+    "load_policy",
+    "train_imitation",
+    "training_vector_env",
+]
+
+TRAIN_FAMILIES = ("open", "sparse", "room", "corridor", "cluttered", "office")
+"""The whole curriculum (``agents.learning.training.CURRICULUM``)."""
+TRAIN_WEIGHTS = (0.5, 0.5, 1.0, 1.0, 1.0, 1.0)
+"""Their shares of the training episodes: the standard families twice the easy ones."""
+
+
+# ---------------------------------------------------------------------------- action coding
+def encode_bins(actions: NDArray[np.floating], bins: int) -> NDArray[np.float32]:
+    """(n, 3, bins) soft targets: each value split between its two nearest of ``bins`` values
+    spread evenly over [-1, 1] (so :func:`decode_bins` of a target gives the value back)."""
+    a = np.clip(np.asarray(actions, dtype=np.float64).reshape(-1, 3), -1.0, 1.0)
+    pos = (a + 1.0) * 0.5 * (bins - 1)
+    lo = np.clip(np.floor(pos).astype(np.int64), 0, bins - 2)
+    frac = pos - lo
+    out = np.zeros((a.shape[0], 3, bins), dtype=np.float32)
+    n, k = np.meshgrid(np.arange(a.shape[0]), np.arange(3), indexing="ij")
+    out[n, k, lo] = 1.0 - frac
+    out[n, k, lo + 1] += frac
+    return out
+
+
+def decode_bins(probs: NDArray[np.floating]) -> NDArray[np.float32]:
+    """(n, 3) actions from (n, 3, bins) probabilities: the probability-weighted mean of the most
+    probable bin and its two neighbours (one mode, never the average of two)."""
+    p = np.asarray(probs, dtype=np.float64)
+    bins = p.shape[-1]
+    values = np.linspace(-1.0, 1.0, bins)
+    best = p.argmax(axis=-1)
+    out = np.zeros(p.shape[:-1])
+    weight = np.zeros(p.shape[:-1])
+    for d in (-1, 0, 1):
+        idx = np.clip(best + d, 0, bins - 1)
+        w = np.take_along_axis(p, idx[..., None], axis=-1)[..., 0]
+        w = np.where((best + d >= 0) & (best + d < bins), w, 0.0)
+        out += w * values[idx]
+        weight += w
+    return (out / np.maximum(weight, 1e-12)).astype(np.float32)
+
+
+# ---------------------------------------------------------------------------- the network
+def _network(channels: int, size_px: int, state_dim: int, bins: int, width: int) -> Any:
+    """The policy network (a ``torch.nn.Module``): map (B, C, S, S) uint8 and state (B, V)
+    -> logits (B, 3, bins)."""
+    import torch
+    from torch import nn
+
+    class EgoPolicyNet(nn.Module):
+        """Small stride-2 CNN over the map (S -> S/16), an MLP over the features, three heads."""
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.encoder = nn.Sequential(
+                nn.Conv2d(channels, 16, 3, stride=2, padding=1),
+                nn.ReLU(),
+                nn.Conv2d(16, 32, 3, stride=2, padding=1),
+                nn.ReLU(),
+                nn.Conv2d(32, 64, 3, stride=2, padding=1),
+                nn.ReLU(),
+                nn.Conv2d(64, 64, 3, stride=2, padding=1),
+                nn.ReLU(),
+                nn.Flatten(),
+            )
+            flat = 64 * math.ceil(size_px / 16) ** 2
+            self.state = nn.Sequential(nn.Linear(state_dim, 64), nn.ReLU())
+            self.head = nn.Sequential(
+                nn.Linear(flat + 64, width),
+                nn.ReLU(),
+                nn.Linear(width, width),
+                nn.ReLU(),
+                nn.Linear(width, 3 * bins),
+            )
+
+        def forward(self, image: torch.Tensor, state: torch.Tensor) -> torch.Tensor:
+            x = self.encoder(image.float() / 255.0)
+            y = self.state(state)
+            logits: torch.Tensor = self.head(torch.cat([x, y], dim=1)).view(-1, 3, bins)
+            return logits
+
+    return EgoPolicyNet()
+
+
+@dataclass(slots=True)
+class PolicyBundle:
+    """A trained policy and what it needs to act.
+
+    Attributes:
+        net: The ``torch.nn.Module``.
+        egomap: The observation geometry it was trained on.
+        bins: Bins per command.
+        meta: Everything saved beside the weights (version, rules, command, record).
+    """
+
+    net: Any
+    egomap: EgoMapConfig
+    bins: int
+    meta: dict[str, Any]
+
+    def act(self, maps: NDArray[np.uint8], states: NDArray[np.float32]) -> NDArray[np.float32]:
+        """(n, 3) actions for a batch of observations."""
+        import torch
+
+        with torch.no_grad():
+            logits = self.net(torch.from_numpy(np.asarray(maps)), torch.from_numpy(states))
+            probs = torch.softmax(logits, dim=-1).numpy()
+        return decode_bins(probs)
+
+    def save(self, path: pathlib.Path) -> None:
+        """Write the weights and metadata to ``path`` (a ``.pt`` file)."""
+        import torch
+
+        path.parent.mkdir(parents=True, exist_ok=True)
+        torch.save({"state_dict": self.net.state_dict(), "meta": self.meta}, path)
+
+
+def _new_bundle(egomap: EgoMapConfig, bins: int, width: int, meta: dict[str, Any]) -> PolicyBundle:
+    net = _network(len(CHANNELS), egomap.size_px, len(STATE_FEATURES), bins, width)
+    return PolicyBundle(net=net, egomap=egomap, bins=bins, meta=meta)
+
+
+def load_policy(path: pathlib.Path | str) -> PolicyBundle:
+    """The policy saved at ``path`` by :func:`train_imitation`.
+
+    Raises:
+        FileNotFoundError: When there is no such file.
+        ValueError: When it was trained on another observation version.
+    """
+    import torch
+
+    path = pathlib.Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no trained policy at {path}")
+    saved = torch.load(path, map_location="cpu", weights_only=False)
+    meta = dict(saved["meta"])
+    version = meta.get("observation_version")
+    if version != OBSERVATION_VERSION:
+        raise ValueError(
+            f"{path} was trained on observation version {version}, this code builds "
+            f"version {OBSERVATION_VERSION}"
+        )
+    egomap = EgoMapConfig.from_dict(meta["egomap"])
+    bundle = _new_bundle(egomap, int(meta["bins"]), int(meta["width"]), meta)
+    bundle.net.load_state_dict(saved["state_dict"])
+    bundle.net.eval()
+    return bundle
+
+
+# ---------------------------------------------------------------------------- the recipe
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ImitationConfig:
+    """What :func:`train_imitation` does.
+
+    Attributes:
+        out_dir: Output folder.
+        seed: Seed of the network, the envs (env ``i`` resets first with ``seed * 1000 + i``,
+            then continues its own stream) and the family draws.
+        teacher: The teacher: ``"planner"`` (or ``"greedy"``, ``"cautious"``).
+        n_envs: Env subprocesses.
+        demo_steps: Env steps of teacher demonstrations (over all envs).
+        rounds: DAgger rounds.
+        round_steps: Env steps per DAgger round.
+        betas: Probability per step that the teacher's action is sent, per round (the last
+            value repeats).
+        epochs: Passes over the aggregated data after the demonstrations and after each round.
+        batch_size: Minibatch size.
+        learning_rate: Adam step size.
+        bins: Bins per command.
+        width: Hidden width of the MLP.
+        env_kwargs: Keyword arguments of ``gym.make("StereoNav-v1", ...)`` (the suite's episode
+            rules unless they change one; ``perception`` among them).
+        families: Scene families of the training episodes, and ``weights`` their shares.
+        weights: Shares of ``families``.
+        egomap: The observation geometry.
+        torch_threads: torch's threads in the main process.
+        command: The command line that ran (recorded in the policy).
+        progress: Show progress bars.
+    """
+
+    out_dir: pathlib.Path
+    seed: int = 0
+    teacher: str = "planner"
+    n_envs: int = 2
+    demo_steps: int = 60_000
+    rounds: int = 3
+    round_steps: int = 30_000
+    betas: tuple[float, ...] = (0.3, 0.0)
+    epochs: int = 2
+    batch_size: int = 256
+    learning_rate: float = 1e-3
+    bins: int = 11
+    width: int = 256
+    env_kwargs: dict[str, Any] = field(
+        default_factory=lambda: {"perception": "surrogate", "diagnostics": False}
+    )
+    families: tuple[str, ...] = TRAIN_FAMILIES
+    weights: tuple[float, ...] = TRAIN_WEIGHTS
+    egomap: EgoMapConfig = field(default_factory=EgoMapConfig)
+    torch_threads: int = 2
+    command: str = ""
+    progress: bool = True
+
+    def __post_init__(self) -> None:
+        from agents.planning.config import Policy
+
+        if self.teacher not in {p.value for p in Policy}:
+            raise ValueError(
+                f"teacher must be one of {[p.value for p in Policy]}, got {self.teacher!r}"
+            )
+        for name in ("n_envs", "demo_steps", "batch_size", "bins", "width", "torch_threads"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        for name in ("rounds", "round_steps", "epochs"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
+        if self.bins < 3:
+            raise ValueError(f"bins must be at least 3, got {self.bins}")
+        if not self.betas or any(not 0.0 <= b <= 1.0 for b in self.betas):
+            raise ValueError(f"betas must be probabilities, got {self.betas!r}")
+        if len(self.weights) != len(self.families):
+            raise ValueError("weights must give one share per family")
+        if "info_models" in self.env_kwargs or "scenario" in self.env_kwargs:
+            raise ValueError("env_kwargs must not set info_models or scenario (the recipe does)")
+
+    def rules(self) -> dict[str, Any]:
+        """The episode rules of the training envs (``EnvConfig.rules_dict()`` of StereoNav-v1
+        with ``env_kwargs``, the env id and the step limit): the suite's when unchanged."""
+        import gymnasium as gym
+
+        from agents.evaluation.suite import ENV_ID, env_config
+
+        return {
+            "env_id": ENV_ID,
+            **env_config(ENV_ID, **self.env_kwargs).rules_dict(),
+            "max_episode_steps": gym.spec(ENV_ID).max_episode_steps,
+        }
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-friendly dict of the fields."""
+        out: dict[str, Any] = {}
+        for name in self.__dataclass_fields__:
+            value = getattr(self, name)
+            if isinstance(value, pathlib.Path):
+                value = str(value)
+            elif isinstance(value, EgoMapConfig):
+                value = value.to_dict()
+            elif isinstance(value, tuple):
+                value = list(value)
+            out[name] = value
+        return out
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ImitationResult:
+    """What :func:`train_imitation` wrote.
+
+    Attributes:
+        policy_path: The trained policy (``policy.pt``).
+        record: Per phase: steps, episodes, success rate of the driving policy, loss, minutes.
+        minutes: Wall time of the whole recipe, minutes.
+        steps: Env steps collected.
+    """
+
+    policy_path: pathlib.Path
+    record: list[dict[str, Any]]
+    minutes: float
+    steps: int
+
+
+class _Dataset:
+    """The aggregated (map, state, teacher action) samples, grown in chunks."""
+
+    def __init__(self) -> None:
+        self.maps: list[NDArray[np.uint8]] = []
+        self.states: list[NDArray[np.float32]] = []
+        self.actions: list[NDArray[np.float32]] = []
+
+    def add(self, maps: NDArray[np.uint8], states: NDArray[np.float32], actions: Any) -> None:
+        self.maps.append(np.asarray(maps, dtype=np.uint8))
+        self.states.append(np.asarray(states, dtype=np.float32))
+        self.actions.append(np.asarray(actions, dtype=np.float32).reshape(-1, 3))
+
+    def arrays(self) -> tuple[NDArray[np.uint8], NDArray[np.float32], NDArray[np.float32]]:
+        return (
+            np.concatenate(self.maps),
+            np.concatenate(self.states),
+            np.concatenate(self.actions),
+        )
+
+    def __len__(self) -> int:
+        return sum(a.shape[0] for a in self.actions)
+
+
+def training_vector_env(cfg: ImitationConfig) -> Any:
+    """The recipe's vector env: ``n_envs`` training envs (in subprocesses when more than one)."""
+    import functools
+
+    import gymnasium as gym
+
+    from agents.learning.wrappers import make_training_env
+
+    make = functools.partial(
+        make_training_env,
+        dict(cfg.env_kwargs),
+        families=cfg.families,
+        weights=cfg.weights,
+        teacher=cfg.teacher,
+        egomap=cfg.egomap,
+    )
+    if cfg.n_envs == 1:
+        return gym.vector.SyncVectorEnv([make])
+    return gym.vector.AsyncVectorEnv([make] * cfg.n_envs, context="forkserver")
+
+
+def _collect(
+    venv: Any,
+    state: dict[str, Any],
+    student: PolicyBundle | None,
+    beta: float,
+    steps: int,
+    data: _Dataset,
+    rng: np.random.Generator,
+    bar: Any,
+) -> dict[str, float]:
+    """Drive ``steps`` env steps (teacher with probability ``beta`` per step, else the
+    student), storing every non-terminal state with the teacher's label."""
+    obs, info, done = state["obs"], state["info"], state["done"]
+    n = len(done)
+    successes = episodes = 0
+    taken = 0
+    while taken < steps:
+        teacher = np.asarray(info["teacher_action"], dtype=np.float32).reshape(n, 3)
+        keep = ~done
+        if keep.any():
+            data.add(obs["map"][keep], obs["state"][keep], teacher[keep])
+        action = teacher.copy()
+        if student is not None and beta < 1.0:
+            own = student.act(obs["map"], obs["state"])
+            use_student = rng.random(n) >= beta
+            action[use_student] = own[use_student]
+        obs, _, terminated, truncated, info = venv.step(action)
+        finished = np.asarray(terminated) | np.asarray(truncated)
+        if finished.any():
+            success = np.asarray(info.get("is_success", np.zeros(n)), dtype=bool)
+            successes += int((success & finished).sum())
+            episodes += int(finished.sum())
+        done = finished
+        taken += int(keep.sum())
+        bar.update(int(keep.sum()))
+    state.update(obs=obs, info=info, done=done)
+    return {
+        "steps": float(taken),
+        "episodes": float(episodes),
+        "success_rate": successes / episodes if episodes else math.nan,
+    }
+
+
+def _fit(
+    bundle: PolicyBundle, data: _Dataset, cfg: ImitationConfig, rng: np.random.Generator
+) -> float:
+    """``cfg.epochs`` passes of Adam over ``data``; the mean loss of the last pass."""
+    import torch
+
+    maps, states, actions = data.arrays()
+    targets = encode_bins(actions, cfg.bins)
+    net = bundle.net
+    net.train()
+    optimiser = torch.optim.Adam(net.parameters(), lr=cfg.learning_rate)
+    n = maps.shape[0]
+    last = math.nan
+    for _ in range(cfg.epochs):
+        order = rng.permutation(n)
+        total = 0.0
+        for start in range(0, n, cfg.batch_size):
+            idx = np.sort(order[start : start + cfg.batch_size])
+            logits = net(torch.from_numpy(maps[idx]), torch.from_numpy(states[idx]))
+            target = torch.from_numpy(targets[idx])
+            loss = -(target * torch.log_softmax(logits, dim=-1)).sum(dim=-1).mean()
+            optimiser.zero_grad()
+            loss.backward()  # type: ignore[no-untyped-call]
+            optimiser.step()
+            total += float(loss.detach()) * idx.size
+        last = total / n
+    net.eval()
+    return last
+
+
+def train_imitation(
+    cfg: ImitationConfig, on_phase: Callable[[dict[str, Any]], None] | None = None
+) -> ImitationResult:
+    """Run the recipe (module docstring); ``on_phase`` sees each phase's record."""
+    import torch
+    from tqdm.auto import tqdm
+
+    t0 = time.perf_counter()
+    torch.manual_seed(cfg.seed)
+    torch.set_num_threads(cfg.torch_threads)
+    rng = np.random.default_rng(cfg.seed)
+    out = pathlib.Path(cfg.out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    meta: dict[str, Any] = {
+        "observation_version": OBSERVATION_VERSION,
+        "egomap": cfg.egomap.to_dict(),
+        "bins": cfg.bins,
+        "width": cfg.width,
+        "rules": cfg.rules(),
+        "config": cfg.to_dict(),
+        "command": cfg.command,
+    }
+    bundle = _new_bundle(cfg.egomap, cfg.bins, cfg.width, meta)
+    data = _Dataset()
+    record: list[dict[str, Any]] = []  # one row per phase (the demonstrations, each round)
+    total = cfg.demo_steps + cfg.rounds * cfg.round_steps
+    venv = training_vector_env(cfg)
+    bar = tqdm(total=total, unit="step", desc="imitation", disable=not cfg.progress)
+    try:
+        obs, info = venv.reset(seed=[cfg.seed * 1000 + i for i in range(cfg.n_envs)])
+        state = {"obs": obs, "info": info, "done": np.zeros(cfg.n_envs, dtype=bool)}
+        for phase in range(cfg.rounds + 1):
+            beta = 1.0 if phase == 0 else cfg.betas[min(phase - 1, len(cfg.betas) - 1)]
+            steps = cfg.demo_steps if phase == 0 else cfg.round_steps
+            student = None if phase == 0 else bundle
+            stats = _collect(venv, state, student, beta, steps, data, rng, bar)
+            loss = _fit(bundle, data, cfg, rng)
+            row: dict[str, Any] = {
+                "phase": "demonstrations" if phase == 0 else f"dagger {phase}",
+                "beta": beta,
+                **stats,
+                "samples": len(data),
+                "loss": loss,
+                "minutes": (time.perf_counter() - t0) / 60.0,
+            }
+            record.append(row)
+            if on_phase is not None:
+                on_phase(row)
+    finally:
+        bar.close()
+        venv.close()
+    minutes = (time.perf_counter() - t0) / 60.0
+    bundle.meta["record"] = record
+    bundle.meta["minutes"] = minutes
+    path = out / "policy.pt"
+    bundle.save(path)
+    (out / "record.json").write_text(json.dumps({"record": record, "minutes": minutes}, indent=2))
+    with (out / "curve.csv").open("w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(["env_steps", "minutes", "phase", "success_rate"])
+        steps_so_far = 0
+        for row in record:
+            steps_so_far += int(row["steps"])
+            writer.writerow(
+                [steps_so_far, f"{row['minutes']:.2f}", row["phase"], row["success_rate"]]
+            )
+    return ImitationResult(
+        policy_path=path, record=record, minutes=minutes, steps=int(sum(r["steps"] for r in record))
+    )

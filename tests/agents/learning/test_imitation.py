@@ -1,0 +1,121 @@
+"""Imitation of the planner: the action coding, the teacher's relabelling, a DAgger smoke run."""
+
+from __future__ import annotations
+
+import importlib.util
+import pathlib
+from types import ModuleType
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import stereo_nav_env  # noqa: F401  (registers the ids)
+from agents import make_agent
+from agents.evaluation.suite import SuiteConfig, suite_rules
+from agents.learning.imitation import (
+    ImitationConfig,
+    decode_bins,
+    encode_bins,
+    load_policy,
+    train_imitation,
+)
+from agents.learning.wrappers import PlannerTeacher
+
+ROOT = pathlib.Path(__file__).resolve().parents[3]
+
+
+def _script(name: str) -> ModuleType:
+    spec = importlib.util.spec_from_file_location(f"script_{name}", ROOT / "scripts" / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_bins_give_every_action_back() -> None:
+    actions = np.random.default_rng(0).uniform(-1, 1, (500, 3))
+    actions[:3] = [[-1, 1, 0], [1, -1, 0.5], [0, 0, -0.2]]
+    np.testing.assert_allclose(decode_bins(encode_bins(actions, 11)), actions, atol=1e-6)
+
+
+def test_two_modes_decode_to_one_of_them_not_their_mean() -> None:
+    left, right = (
+        encode_bins(np.array([[0.5, -0.8, 0.0]]), 11),
+        encode_bins(np.array([[0.5, 0.8, 0.0]]), 11),
+    )
+    mixed = 0.45 * left + 0.55 * right
+    assert decode_bins(mixed)[0, 1] == pytest.approx(0.8, abs=1e-6)
+
+
+def test_the_teacher_labels_the_state_the_student_drove_into() -> None:
+    """With the teacher's own actions sent, the wrapper's labels are the planner's actions of a
+    planner driving alone; and an executed command other than the label reaches its memory."""
+    alone = gym.make("StereoNav-v1", scenario="room", perception="surrogate")
+    planner = make_agent("planner")
+    obs, info = alone.reset(seed=3)
+    planner.reset(alone, seed=3)
+    reference = []
+    for _ in range(25):
+        action = planner.act(obs, info)
+        reference.append(action)
+        obs, *_, info = alone.step(action)
+    wrapped = PlannerTeacher(gym.make("StereoNav-v1", scenario="room", perception="surrogate"))
+    _, info = wrapped.reset(seed=3)
+    labels = []
+    for _ in range(25):
+        labels.append(info["teacher_action"])
+        _, *_, info = wrapped.step(info["teacher_action"])
+    np.testing.assert_array_equal(np.array(labels), np.array(reference))
+    wrapped.teacher.executed(np.array([-0.7, 0.0, 0.0]))
+    assert wrapped.teacher._recovery is not None
+    assert wrapped.teacher._recovery._last_forward == pytest.approx(-0.7)
+
+
+def test_a_dagger_smoke_run_writes_a_policy_that_loads_and_acts(tmp_path: pathlib.Path) -> None:
+    cfg = ImitationConfig(
+        out_dir=tmp_path,
+        n_envs=1,
+        demo_steps=150,
+        rounds=1,
+        round_steps=100,
+        epochs=1,
+        families=("open", "room"),
+        weights=(1.0, 1.0),
+        progress=False,
+    )
+    result = train_imitation(cfg)
+    assert [r["phase"] for r in result.record] == ["demonstrations", "dagger 1"]
+    assert result.record[0]["samples"] >= 150 and result.record[1]["samples"] >= 250
+    policy = load_policy(result.policy_path)
+    assert policy.meta["rules"] == cfg.rules()
+    agent = make_agent(f"learned:{result.policy_path}")
+    env = gym.make("StereoNav-v1", scenario="office", perception="surrogate")
+    obs, info = env.reset(seed=1)
+    agent.reset(env, seed=1)
+    for _ in range(5):
+        action = agent.act(obs, info)
+        assert action.shape == (3,) and np.all(np.abs(action) <= 1.0)
+        obs, *_, info = env.step(action)
+    fixed = make_agent(f"learned-fixed-head:{result.policy_path}")
+    fixed.reset(env, seed=1)
+    assert fixed.act(obs, info)[2] == 0.0
+    env.close()
+
+
+def test_the_recipe_trains_under_the_rules_the_suite_evaluates(tmp_path: pathlib.Path) -> None:
+    cfg = _script("train").imitation_config(["--teacher", "planner", "--out", str(tmp_path)])
+    assert cfg.rules() == suite_rules(SuiteConfig())
+    assert cfg.rules()["preset"] == "v1"
+    assert cfg.command.startswith("python scripts/train.py --teacher planner")
+
+
+def test_bad_recipes_are_named(tmp_path: pathlib.Path) -> None:
+    with pytest.raises(ValueError, match="teacher"):
+        ImitationConfig(out_dir=tmp_path, teacher="oracle")
+    with pytest.raises(ValueError, match="betas"):
+        ImitationConfig(out_dir=tmp_path, betas=(1.5,))
+    with pytest.raises(ValueError, match="info_models"):
+        ImitationConfig(out_dir=tmp_path, env_kwargs={"info_models": True})
+    with pytest.raises(FileNotFoundError, match="no trained policy"):
+        load_policy(tmp_path / "none.pt")
