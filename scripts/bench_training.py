@@ -12,20 +12,18 @@ observation, no learner), then the recipe itself on the same number of steps wit
 proportions (40 % demonstrations, three DAgger rounds of 20 %, the same epochs; set-up, every
 fit and the saving included: ``loop_steps_per_s``); ``loop_over_raw_env`` is their ratio.
 
-``--learner backends`` compares RLlib PPO on 1 and 2 env runners against stable-baselines3 on 1
-and 2 envs (docs/rllib.md). All four runs happen in this one process, one after the other, on the env kwargs that
-``scripts/train.py`` builds (``scenario``, ``perception``, ``diagnostics=False``,
+``--learner backends`` compares RLlib PPO on 1 and 2 env runners against stable-baselines3 on 1 and
+2 envs (docs/rllib.md). All four runs happen in this one process, one after the other, on the env
+kwargs that ``scripts/train.py`` builds (``scenario``, ``perception``, ``diagnostics=False``,
 ``memory=False``) and with :class:`~agents.learning.training.TrainConfig`'s PPO settings (the
 rollout of ``rollout_steps`` over all envs or runners, minibatch, epochs, ``net_arch``) but
 ``eval_freq=0`` and ``checkpoint_freq=0``: ``train_ppo`` (sb3; 2 envs in ``SubprocVecEnv``
 processes) and ``train_rllib`` (RLlib's new API stack, an MLP of ``net_arch`` on the flattened
-observation; each runner a Ray worker process).
-
-Figures per run: ``<run>_steps_per_s`` (env steps over the wall time of the whole training call,
-set-up included: Ray start, worker and env creation, saving), and for RLlib also
-``<run>_loop_steps_per_s`` (over the ``algo.train()`` iterations only); ``<run>_over_sb3_1env``
-is the first over the sb3 one-env run's. It prints a Markdown table and the load average before
-and after (the machine is shared: other processes' load shows in the figures).
+observation; each runner a Ray worker process). Figures per run: ``<run>_steps_per_s`` (env steps
+over the wall time of the whole training call, set-up included: Ray start, worker and env creation,
+saving), and for RLlib also ``<run>_loop_steps_per_s`` (over the ``algo.train()`` iterations only);
+``<run>_over_sb3_1env`` is the first over the sb3 one-env run's. It prints a Markdown table and the
+load average before and after (the machine is shared: other processes' load shows in the figures).
 """
 
 from __future__ import annotations

@@ -23,9 +23,13 @@ on a batch in the main process. ``info`` crosses the pipe without the model obje
 (``info_models=False``).
 
 Outputs in ``out_dir``: ``policy.pt`` (the network's weights and its metadata: observation
-version and geometry, episode rules, bins, the command line, the record), ``record.json`` (per
+version and geometry, episode rules, bins, the command line, the record),
+``checkpoints/phaseK.pt`` (the policy after phase K: 0 the cloning, K the K-th round),
+``record.json`` (per
 phase: steps, episodes, success rate of the driving policy, loss, minutes) and ``curve.csv``
-(per round: cumulative env steps, minutes, the student's success rate while it drove).
+(per finished training episode: env steps so far, length, success, phase, beta: the learning
+curve of the driving policy, the teacher's during the demonstrations;
+:func:`agents.learning.seeds.plot_seed_curves` draws it).
 
 torch is imported inside the functions that need it.
 """
@@ -385,12 +389,13 @@ def _collect(
     data: _Dataset,
     rng: np.random.Generator,
     bar: Any,
-) -> dict[str, float]:
+) -> list[dict[str, float]]:
     """Drive ``steps`` env steps (teacher with probability ``beta`` per step, else the
-    student), storing every non-terminal state with the teacher's label."""
-    obs, info, done = state["obs"], state["info"], state["done"]
+    student), storing every non-terminal state with the teacher's label; returns the finished
+    episodes (``timesteps``: env steps so far, ``length``, ``success``)."""
+    obs, info, done, lengths = state["obs"], state["info"], state["done"], state["lengths"]
     n = len(done)
-    successes = episodes = 0
+    episodes: list[dict[str, float]] = []
     taken = 0
     while taken < steps:
         teacher = np.asarray(info["teacher_action"], dtype=np.float32).reshape(n, 3)
@@ -403,20 +408,22 @@ def _collect(
             use_student = rng.random(n) >= beta
             action[use_student] = own[use_student]
         obs, _, terminated, truncated, info = venv.step(action)
-        finished = np.asarray(terminated) | np.asarray(truncated)
-        if finished.any():
-            success = np.asarray(info.get("is_success", np.zeros(n)), dtype=bool)
-            successes += int((success & finished).sum())
-            episodes += int(finished.sum())
-        done = finished
         taken += int(keep.sum())
+        state["steps"] += int(keep.sum())
+        lengths = np.where(keep, lengths + 1, 0)
+        done = np.asarray(terminated) | np.asarray(truncated)
+        success = np.asarray(info.get("is_success", np.zeros(n)), dtype=bool)
+        for i in np.flatnonzero(done):
+            episodes.append(
+                {
+                    "timesteps": float(state["steps"]),
+                    "length": float(lengths[i]),
+                    "success": float(success[i]),
+                }
+            )
         bar.update(int(keep.sum()))
-    state.update(obs=obs, info=info, done=done)
-    return {
-        "steps": float(taken),
-        "episodes": float(episodes),
-        "success_rate": successes / episodes if episodes else math.nan,
-    }
+    state.update(obs=obs, info=info, done=done, lengths=lengths)
+    return episodes
 
 
 def _fit(
@@ -474,27 +481,42 @@ def train_imitation(
     bundle = _new_bundle(cfg.egomap, cfg.bins, cfg.width, meta)
     data = _Dataset()
     record: list[dict[str, Any]] = []  # one row per phase (the demonstrations, each round)
+    curve: list[dict[str, Any]] = []  # one row per finished training episode
     total = cfg.demo_steps + cfg.rounds * cfg.round_steps
     venv = training_vector_env(cfg)
     bar = tqdm(total=total, unit="step", desc="imitation", disable=not cfg.progress)
     try:
         obs, info = venv.reset(seed=[cfg.seed * 1000 + i for i in range(cfg.n_envs)])
-        state = {"obs": obs, "info": info, "done": np.zeros(cfg.n_envs, dtype=bool)}
+        state = {
+            "obs": obs,
+            "info": info,
+            "done": np.zeros(cfg.n_envs, dtype=bool),
+            "lengths": np.zeros(cfg.n_envs, dtype=np.int64),
+            "steps": 0,
+        }
         for phase in range(cfg.rounds + 1):
             beta = 1.0 if phase == 0 else cfg.betas[min(phase - 1, len(cfg.betas) - 1)]
             steps = cfg.demo_steps if phase == 0 else cfg.round_steps
             student = None if phase == 0 else bundle
-            stats = _collect(venv, state, student, beta, steps, data, rng, bar)
+            before = state["steps"]
+            finished = _collect(venv, state, student, beta, steps, data, rng, bar)
+            name = "demonstrations" if phase == 0 else f"dagger {phase}"
+            curve += [{**e, "phase": name, "beta": beta} for e in finished]
             loss = _fit(bundle, data, cfg, rng)
+            successes = [e["success"] for e in finished]
             row: dict[str, Any] = {
-                "phase": "demonstrations" if phase == 0 else f"dagger {phase}",
+                "phase": name,
                 "beta": beta,
-                **stats,
+                "steps": state["steps"] - before,
+                "episodes": len(finished),
+                "success_rate": float(np.mean(successes)) if successes else math.nan,
                 "samples": len(data),
                 "loss": loss,
                 "minutes": (time.perf_counter() - t0) / 60.0,
             }
             record.append(row)
+            bundle.meta["record"] = record
+            bundle.save(out / "checkpoints" / f"phase{phase}.pt")
             if on_phase is not None:
                 on_phase(row)
     finally:
@@ -507,14 +529,9 @@ def train_imitation(
     bundle.save(path)
     (out / "record.json").write_text(json.dumps({"record": record, "minutes": minutes}, indent=2))
     with (out / "curve.csv").open("w", newline="") as fh:
-        writer = csv.writer(fh)
-        writer.writerow(["env_steps", "minutes", "phase", "success_rate"])
-        steps_so_far = 0
-        for row in record:
-            steps_so_far += int(row["steps"])
-            writer.writerow(
-                [steps_so_far, f"{row['minutes']:.2f}", row["phase"], row["success_rate"]]
-            )
+        writer = csv.DictWriter(fh, fieldnames=["timesteps", "length", "success", "phase", "beta"])
+        writer.writeheader()
+        writer.writerows(curve)
     return ImitationResult(
         policy_path=path, record=record, minutes=minutes, steps=int(sum(r["steps"] for r in record))
     )
