@@ -51,7 +51,12 @@ def seed_summary(per_seed: Mapping[str, Sequence[EpisodeResult]]) -> dict[str, A
     return out
 
 
-_KEYS = {"success_rate": "success", "spl": "spl", "collision_rate": "collided"}
+_KEYS = {
+    "success_rate": "success",
+    "spl": "spl",
+    "collision_rate": "collided",
+    "collision_steps": "collision_steps",
+}
 
 
 def _values(episodes: Sequence[EpisodeResult], key: str) -> list[float]:
@@ -62,15 +67,17 @@ def _values(episodes: Sequence[EpisodeResult], key: str) -> list[float]:
 def seed_table(rows: Mapping[str, Mapping[str, Any]]) -> str:
     """A Markdown table: one row per ``{label: seed_summary}``, the seeds' successes listed."""
     lines = [
-        "| agent / family | seeds x episodes | success [95 % CI] | per seed | SPL | collision |",
-        "|---|---|---|---|---|---|",
+        "| agent / family | seeds x episodes | success [95 % CI] | per seed | SPL | collision rate "
+        "| collision steps / episode |",
+        "|---|---|---|---|---|---|---|",
     ]
     for label, s in rows.items():
         lo, hi = s["success_rate_ci"]
         seeds = ", ".join(f"{v['success_rate']:.2f}" for v in s["per_seed"].values())
         lines.append(
             f"| {label} | {s['seeds']} x {s['episodes']} | {s['success_rate']:.2f} "
-            f"[{lo:.2f}, {hi:.2f}] | {seeds} | {s['spl']:.3f} | {s['collision_rate']:.2f} |"
+            f"[{lo:.2f}, {hi:.2f}] | {seeds} | {s['spl']:.3f} | {s['collision_rate']:.2f} "
+            f"| {s.get('collision_steps', float('nan')):.2f} |"
         )
     return "\n".join(lines) + "\n"
 
@@ -124,7 +131,7 @@ def plot_seed_curves(
         ax.plot(grid, stack.mean(axis=0), color="tab:blue", label="mean of seeds")
         for label, (t, s) in curves.items():
             ax.plot(t, s, lw=0.6, alpha=0.7, label=f"seed {label}")
-    ax.set_xlabel("timesteps")
+    ax.set_xlabel("env steps")
     ax.set_ylabel(f"success, last {window} episodes")
     ax.set_ylim(-0.05, 1.05)
     ax.grid(alpha=0.3)
