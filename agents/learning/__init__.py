@@ -1,8 +1,12 @@
 """Learning: training policies with stable-baselines3 or RLlib, and the agents that run them.
 
-Owns the SB3 training loop with its curriculum (:mod:`.training`), the agent of a saved SB3
-model (:mod:`.ppo`), results over training seeds (:mod:`.seeds`) and the RLlib backend, agent
-and connectors (:mod:`.rllib`). torch is imported here and nowhere else.
+Owns the imitation of the planner: the learned agents' observation (:mod:`.egomap`), the
+training envs' wrappers with the teacher's labels (:mod:`.wrappers`), behaviour cloning and DAgger
+(:mod:`.imitation`) and the agent of its policies (:mod:`.learned`); the SB3 training loop with its
+curriculum (:mod:`.training`), the agent of a saved SB3 model (:mod:`.ppo`), results over training
+seeds (:mod:`.seeds`) and the RLlib backend, agent and connectors (:mod:`.rllib`). torch is
+imported here and nowhere else.
 
-May import: :mod:`stereo_nav_env`, :mod:`agents.base`, :mod:`agents.evaluation`.
+May import: :mod:`stereo_nav_env`, :mod:`agents.base`, :mod:`agents.planning` (the teacher, and
+the planner's map as the learned agents' memory), :mod:`agents.evaluation`.
 """

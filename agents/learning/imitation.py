@@ -190,7 +190,8 @@ def load_policy(path: pathlib.Path | str) -> PolicyBundle:
 
     Raises:
         FileNotFoundError: When there is no such file.
-        ValueError: When it was trained on another observation version.
+        ValueError: When it was trained on another observation version, or holds a network of
+            another shape.
     """
     import torch
 
@@ -207,7 +208,10 @@ def load_policy(path: pathlib.Path | str) -> PolicyBundle:
         )
     egomap = EgoMapConfig.from_dict(meta["egomap"])
     bundle = _new_bundle(egomap, int(meta["bins"]), int(meta["width"]), meta)
-    bundle.net.load_state_dict(saved["state_dict"])
+    try:
+        bundle.net.load_state_dict(saved["state_dict"])
+    except RuntimeError as exc:
+        raise ValueError(f"{path} holds a network this code does not build: {exc}") from None
     bundle.net.eval()
     return bundle
 

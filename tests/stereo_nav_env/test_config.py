@@ -131,6 +131,7 @@ def test_derived_values_are_properties() -> None:
         "perception",
         "memory",
         "diagnostics",
+        "info_models",
         "world",
         "camera",
         "observation",
