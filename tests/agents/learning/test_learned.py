@@ -22,7 +22,10 @@ def test_the_shipped_policy_is_small_and_says_how_it_was_made() -> None:
     assert meta["observation_version"] == OBSERVATION_VERSION
     assert meta["rules"] == suite_rules(SuiteConfig())  # trained under the suite's rules
     assert meta["command"].startswith("python scripts/train.py --teacher planner")
-    assert [row["phase"] for row in meta["record"]][0] == "demonstrations"
+    assert [row["phase"] for row in meta["record"]] == [
+        "demonstrations",
+        *(f"dagger {k}" for k in (1, 2, 3)),
+    ]
 
 
 def test_make_agent_learned_acts_on_a_fresh_env_deterministically() -> None:
