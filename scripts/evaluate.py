@@ -40,6 +40,7 @@ from agents.evaluation.suite import (
     suite_rules,
     summarize,
 )
+from stereo_nav_env.perception.base import PerceptionName
 
 
 def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]:
@@ -71,9 +72,10 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
     )
     parser.add_argument(
         "--perception",
-        choices=("stereo", "surrogate"),
-        default="stereo",
-        help="the env's perception (surrogate: no rendering; stereo_nav_env.perception.surrogate)",
+        choices=[p.value for p in PerceptionName],
+        default=PerceptionName.STEREO.value,
+        help="the env's perception (stereo_nav_env.perception: surrogate and truth render "
+        "nothing; stereo_means, dense and truth are issue 43's ablation)",
     )
     parser.add_argument(
         "--tilt",
