@@ -8,7 +8,8 @@ or torch.
 The package, by concept (docs/architecture.md):
 
 * :mod:`modeling.stereo`: from a rectified image pair to a floor observation (paper section 3);
-* :mod:`modeling.observation`: :class:`FloorObservation`, the one seam between stereo and model;
+* :mod:`modeling.observation`: :class:`FloorObservation`, the one seam between stereo and model
+  (and :func:`face_value`, an observation with its uncertainty dropped);
 * :mod:`modeling.model`: from a floor observation to obstacles, critical regions, occlusion and
   situations (sections 2 and 4);
 * :mod:`modeling.memory`: the fusion of observations across views (section 6);
@@ -32,6 +33,7 @@ _EXPORTS: dict[str, str] = {
     "FloorSegment": "modeling.observation",
     "AmbiguousSegment": "modeling.observation",
     "FloorObservation": "modeling.observation",
+    "face_value": "modeling.observation",
     "ImageSegments": "modeling.stereo.segments",
     "extract_segments": "modeling.stereo.segments",
     "extract_segment_pair": "modeling.stereo.segments",
@@ -89,6 +91,7 @@ __all__ = [
     "close_faces",
     "extract_segment_pair",
     "extract_segments",
+    "face_value",
     "fuse",
     "gap_passable_probability",
     "match_segments",
@@ -108,7 +111,12 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
         Passage,
         Situation,
     )
-    from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
+    from modeling.observation import (
+        AmbiguousSegment,
+        FloorObservation,
+        FloorSegment,
+        face_value,
+    )
     from modeling.pipeline import model_from_stereo
     from modeling.stereo.faces import FaceOptions, close_faces
     from modeling.stereo.matching import MatchOptions, StereoMatches, match_segments

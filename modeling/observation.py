@@ -1,6 +1,8 @@
 """Floor-level observations: 2D segments with uncertain endpoints (paper sections 2, 3.2, 3.3).
 
-All coordinates are in the world frame, metres; covariances in m^2.
+All coordinates are in the world frame, metres; covariances in m^2. :func:`face_value` drops an
+observation's uncertainty (the ``stereo_means`` ablation of issue 43: the same segments taken at
+face value).
 """
 
 from __future__ import annotations
@@ -10,12 +12,31 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from modeling.types import FloatArray
+from modeling.types import FloatArray, IntArray
 from modeling.validation import covariance, finite_array, positive, probabilities
 
-__all__ = ["AmbiguousSegment", "FloorObservation", "FloorSegment", "none_mass"]
+__all__ = [
+    "NEGLIGIBLE_STD_M",
+    "AmbiguousSegment",
+    "FloorObservation",
+    "FloorSegment",
+    "face_value",
+    "negligible_covariance",
+    "none_mass",
+]
 
 P_NONE_ATOL = 1e-9  # a p_none below this is rounding: the candidates sum to 1
+
+NEGLIGIBLE_STD_M = 1e-6
+"""A standard deviation that stands for no uncertainty at all, metres (1 micrometre).
+
+A zero covariance is refused (:class:`FloorSegment` needs a positive-definite one: the model
+stages work in the eigenbasis of a covariance and the memory inverts it), so "no spread" is
+``NEGLIGIBLE_STD_M^2`` along each axis. At that spread a gap's passable probability
+(:func:`modeling.model.gaps.gap_passable_probability`: the gap of two such endpoints has the
+standard deviation ``sqrt(2) NEGLIGIBLE_STD_M`` in every direction) is within ``eps = 0.05`` of
+0 or 1 unless the gap's width is within ``1.645 sqrt(2) NEGLIGIBLE_STD_M`` (2.3 micrometres) of
+the robot's: every gap is passable or impassable."""
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
@@ -43,6 +64,49 @@ class FloorSegment:
         for name, arr in (("endpoints", ends), ("cov", cov), ("height_m", heights)):
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
+
+    @classmethod
+    def stack(
+        cls,
+        endpoints: FloatArray,
+        cov: FloatArray,
+        height_m: FloatArray,
+        source: IntArray,
+    ) -> tuple[FloorSegment, ...]:
+        """``n`` segments from stacked arrays, checked once in bulk (as the constructor checks
+        each: finite endpoints and heights, symmetric positive-definite covariances) instead of
+        one by one, which would cost more than the producer's own work (a dense grid's
+        outlines: tens of segments a view). Each segment holds read-only views of its rows.
+
+        Args:
+            endpoints: (n, 2, 2) endpoint means, world metres.
+            cov: (n, 2, 2, 2) endpoint covariances, m^2.
+            height_m: (n, 2) heights of the endpoints before projection, metres.
+            source: (n,) provenance of each.
+
+        Raises:
+            ValueError: An array of the wrong shape or a bad value (naming the field).
+        """
+        ends = finite_array(endpoints, "endpoints", (None, 2, 2))
+        n = ends.shape[0]
+        covs = covariance(cov, "cov")
+        if covs.shape != (n, 2, 2, 2):
+            raise ValueError(f"cov must have shape ({n}, 2, 2, 2), got {covs.shape}")
+        heights = finite_array(height_m, "height_m", (n, 2))
+        src = np.asarray(source)
+        if src.shape != (n,) or src.dtype.kind not in "iu":
+            raise ValueError(f"source must be ({n},) integers, got {src.dtype} {src.shape}")
+        for arr in (ends, covs, heights):
+            arr.setflags(write=False)
+        out = []
+        for k, provenance in enumerate(src.tolist()):
+            seg = object.__new__(cls)
+            object.__setattr__(seg, "endpoints", ends[k])
+            object.__setattr__(seg, "cov", covs[k])
+            object.__setattr__(seg, "height_m", heights[k])
+            object.__setattr__(seg, "source", int(provenance))
+            out.append(seg)
+        return tuple(out)
 
     @property
     def length_m(self) -> float:
@@ -178,3 +242,64 @@ class FloorObservation:
             fov_rad=self.fov_rad,
             max_range_m=self.max_range_m,
         )
+
+
+def negligible_covariance(std_m: float = NEGLIGIBLE_STD_M) -> FloatArray:
+    """(2, 2, 2) the covariance of a :class:`FloorSegment` with no spread to speak of:
+    ``std_m^2`` times the identity at both endpoints (default :data:`NEGLIGIBLE_STD_M`).
+
+    Raises:
+        ValueError: ``std_m`` not a positive finite number.
+    """
+    std = positive(std_m, "std_m")
+    return np.broadcast_to(std * std * np.eye(2), (2, 2, 2)).copy()
+
+
+def face_value(
+    observation: FloorObservation, *, std_m: float = NEGLIGIBLE_STD_M
+) -> FloorObservation:
+    """``observation`` taken at face value: its uncertainty dropped (issue 43's ``stereo_means``).
+
+    Every segment keeps its endpoint means, with the covariance :func:`negligible_covariance`
+    of ``std_m`` instead of its own (an exact zero is refused: :data:`NEGLIGIBLE_STD_M`). Every
+    ambiguous segment is reduced to its most probable choice: its most probable candidate, then
+    an unambiguous segment, or nothing when "no obstacle here" (:attr:`AmbiguousSegment.p_none`)
+    is more probable than every candidate (a tie goes to the first of the most probable
+    candidates). So the model of the result (:func:`modeling.model.build.build_model`) has no
+    ambiguity: one situation, of probability 1, whose gaps are all passable or impassable (see
+    :data:`NEGLIGIBLE_STD_M`). The viewpoint, field of view and range are kept.
+
+    Args:
+        observation: The floor observation.
+        std_m: The standard deviation that stands for none, metres (> 0).
+
+    Returns:
+        A new :class:`FloorObservation` with no ambiguous segments: the segments first, then the
+        chosen candidates in the order of their ambiguous segments.
+
+    Raises:
+        ValueError: ``observation`` not a :class:`FloorObservation`, or a bad ``std_m``.
+    """
+    if not isinstance(observation, FloorObservation):
+        raise ValueError(
+            f"observation must be a FloorObservation, got {type(observation).__name__}"
+        )
+    cov = negligible_covariance(std_m)
+    cov.setflags(write=False)
+
+    def certain(seg: FloorSegment) -> FloorSegment:
+        return FloorSegment(
+            endpoints=seg.endpoints, cov=cov, height_m=seg.height_m, source=seg.source
+        )
+
+    chosen = [
+        amb.candidates[int(np.argmax(amb.probabilities))]
+        for amb in observation.ambiguous
+        if max(amb.probabilities) >= amb.p_none
+    ]
+    return FloorObservation(
+        segments=tuple(certain(seg) for seg in (*observation.segments, *chosen)),
+        viewpoint=observation.viewpoint,
+        fov_rad=observation.fov_rad,
+        max_range_m=observation.max_range_m,
+    )

@@ -563,6 +563,7 @@ def plot_models(
     seen: Sequence[Any] | None = None,
     limits: tuple[float, float, float, float] | None = None,
     show_ellipses: bool = True,
+    number_obstacles: bool = True,
 ) -> Any:
     """Draw the most probable situation of each model in its own panel, side by side.
 
@@ -578,6 +579,7 @@ def plot_models(
         limits: ``(x_min, x_max, y_min, y_max)`` metres; default: the union of the panels'
             :func:`model_extent`.
         show_ellipses: Draw endpoint uncertainty ellipses (2 sigma).
+        number_obstacles: Number the obstacles (where there is room).
 
     Returns:
         A new :class:`matplotlib.figure.Figure` (not managed by pyplot).
@@ -653,7 +655,7 @@ def plot_models(
     fig.tight_layout(rect=(0, _LEGEND_IN / fig.get_figheight(), 1, 1))
     for ax, model in zip(axes, models, strict=True):
         if model.situations:
-            label_situation(ax, model, 0)
+            label_situation(ax, model, 0, number_obstacles=number_obstacles)
     return fig
 
 

@@ -43,6 +43,7 @@ import stereo_nav_env  # noqa: F401  (registers the ids)
 from agents import make_agent
 from agents.evaluation.suite import ENV_ID, suite_episodes
 from modeling.geometry import wrap_angle
+from stereo_nav_env.perception.base import PerceptionName
 
 
 def _views_of(
@@ -99,7 +100,10 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     parser.add_argument("--view-range", type=float, default=6.0, help="metres (see above)")
     parser.add_argument("--json", type=pathlib.Path, help="every contact as JSON")
     parser.add_argument(
-        "--perception", choices=("stereo", "surrogate"), default="stereo", help="the perception"
+        "--perception",
+        choices=[p.value for p in PerceptionName],
+        default=PerceptionName.STEREO.value,
+        help="the perception",
     )
     parser.add_argument(
         "--memory", action="store_true", help="also what the env's fused memory held (see above)"

@@ -40,12 +40,13 @@ from agents.evaluation.suite import (
     suite_rules,
     summarize,
 )
+from stereo_nav_env.perception.base import PerceptionName
 
 
-def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]:
-    """The parsed command line and its suite."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--agent", action="append", required=True, help="agent name (repeat)")
+def add_suite_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the suite's options to ``parser``: ``--episodes``, ``--split``, ``--seed``,
+    ``--scenario``, ``--families``, ``--max-steps``, ``--workers`` and ``--no-progress``
+    (:func:`suite_of` reads them)."""
     parser.add_argument("--episodes", type=int, default=32, help="episodes per agent")
     parser.add_argument(
         "--split",
@@ -54,16 +55,48 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
         help="dev (tuning, the default) or test (reported figures only)",
     )
     parser.add_argument("--seed", type=int, default=None, help="suite seed (within the split)")
-    parser.add_argument("--json", type=pathlib.Path, help="summary JSON file (default: none)")
-    parser.add_argument("--markdown", type=pathlib.Path, help="Markdown table file")
-    parser.add_argument("--plot", type=pathlib.Path, help="bar plot (PNG)")
-    parser.add_argument("--details", type=pathlib.Path, help="per-episode JSON file")
     parser.add_argument("--scenario", default=None, help="run the suite on this family only")
     parser.add_argument(
         "--families", nargs="+", default=None, help="scene families (default: the standard four)"
     )
     parser.add_argument("--max-steps", type=int, default=500, help="steps at most per episode")
     parser.add_argument("--workers", type=int, default=1, help="parallel processes")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def suite_of(
+    parser: argparse.ArgumentParser,
+    args: argparse.Namespace,
+    env_kwargs: dict[str, Any],
+    navigator: dict[str, Any] | None = None,
+) -> SuiteConfig:
+    """The :class:`SuiteConfig` of the options of :func:`add_suite_arguments` in ``args``, with
+    ``env_kwargs`` and ``navigator``: the split's seed unless ``--seed`` (a seed of the other
+    split is a ``parser.error``), ``--scenario`` or ``--families``."""
+    seed = default_seed(args.split) if args.seed is None else args.seed
+    if seed >= 0 and split_of(seed).value != args.split:
+        parser.error(f"--seed {seed} is a {split_of(seed).value} seed, not of --split {args.split}")
+    families = [args.scenario] if args.scenario is not None else args.families
+    kw = {} if families is None else {"families": tuple(families)}
+    return SuiteConfig(
+        episodes=args.episodes,
+        seed=seed,
+        max_steps=args.max_steps,
+        env_kwargs=env_kwargs,
+        navigator={} if navigator is None else navigator,
+        **kw,
+    )
+
+
+def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]:
+    """The parsed command line and its suite."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--agent", action="append", required=True, help="agent name (repeat)")
+    add_suite_arguments(parser)
+    parser.add_argument("--json", type=pathlib.Path, help="summary JSON file (default: none)")
+    parser.add_argument("--markdown", type=pathlib.Path, help="Markdown table file")
+    parser.add_argument("--plot", type=pathlib.Path, help="bar plot (PNG)")
+    parser.add_argument("--details", type=pathlib.Path, help="per-episode JSON file")
     parser.add_argument(
         "--terminate-on-collision",
         action="store_true",
@@ -71,9 +104,10 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
     )
     parser.add_argument(
         "--perception",
-        choices=("stereo", "surrogate"),
-        default="stereo",
-        help="the env's perception (surrogate: no rendering; stereo_nav_env.perception.surrogate)",
+        choices=[p.value for p in PerceptionName],
+        default=PerceptionName.STEREO.value,
+        help="the env's perception (stereo_nav_env.perception: surrogate and truth render "
+        "nothing; stereo_means, dense and truth are issue 43's ablation)",
     )
     parser.add_argument(
         "--tilt",
@@ -94,18 +128,10 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
         help="the env's lowest near-horizontal image lines enter as floor segments "
         "(EnvConfig.ground_lines, modeling.stereo.ground_lines; stereo only)",
     )
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
-    seed = default_seed(args.split) if args.seed is None else args.seed
-    if seed >= 0 and split_of(seed).value != args.split:
-        parser.error(f"--seed {seed} is a {split_of(seed).value} seed, not of --split {args.split}")
-
-    families = [args.scenario] if args.scenario is not None else args.families
-    kw = {} if families is None else {"families": tuple(families)}
-    cfg = SuiteConfig(
-        episodes=args.episodes,
-        seed=seed,
-        max_steps=args.max_steps,
+    cfg = suite_of(
+        parser,
+        args,
         env_kwargs={
             "diagnostics": False,
             "memory": args.fused_range > 0.0,
@@ -115,7 +141,6 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
         | ({"ground_lines": True} if args.ground_lines else {})
         | ({"camera": {"tilt_rad": args.tilt}} if args.tilt is not None else {}),
         navigator={"fused_range_m": args.fused_range} if args.fused_range > 0.0 else {},
-        **kw,
     )
     return args, cfg
 

@@ -350,12 +350,20 @@ class EnvConfig:
             between them (:mod:`modeling.stereo.faces`, an addition to the paper's pipeline).
         ground_lines: Whether the image's lowest near-horizontal lines enter as floor segments
             where they meet the floor (:mod:`modeling.stereo.ground_lines`, an addition to the
-            paper's pipeline; off by default; stereo perception only).
+            paper's pipeline; off by default; perceptions ``stereo`` and ``stereo_means`` only).
         perception: :class:`~stereo_nav_env.perception.base.PerceptionName` (or its value):
-            ``"stereo"`` (render the pair and run the stereo pipeline) or ``"surrogate"``
-            (render nothing: the floor observation from the true scene and the stereo's error
-            model and measured rates, :mod:`stereo_nav_env.perception.surrogate`; the
-            observation must then hold no images).
+            ``"stereo"`` (render the pair and run the stereo pipeline), ``"surrogate"`` (render
+            nothing: the floor observation from the true scene and the stereo's error model and
+            measured rates, :mod:`stereo_nav_env.perception.surrogate`), ``"stereo_means"`` (the
+            stereo's floor observation taken at face value: no spread, each ambiguous segment
+            its most probable candidate, one situation), ``"dense"`` (the rendered pair through
+            OpenCV's semi-global matching into an occupancy evidence grid whose blobs' outlines
+            are the floor observation, :mod:`stereo_nav_env.perception.dense`) or ``"truth"``
+            (render nothing: the true visible outlines with no spread,
+            :mod:`stereo_nav_env.perception.truth`). The last three are issue 43's ablation. A
+            perception that renders nothing (``surrogate``, ``truth``) needs an observation
+            without images; ``ground_lines`` needs one that extracts image segments
+            (``stereo``, ``stereo_means``).
         memory: Whether every view is fused into the episode's memory and its model built
             (``info["memory_model"]``, the ``memory_*`` diagnostics; the ``"memory"`` and
             ``"model_memory"`` observation modes need it). ``None`` (the default): on exactly when
@@ -430,15 +438,15 @@ class EnvConfig:
                 f"observation_mode {self.observation.observation_mode.value!r} observes the "
                 "memory: memory must be True"
             )
-        if not perception.renders_images and self.ground_lines:
+        if not perception.has_image_lines and self.ground_lines:
             raise ValueError(
-                "ground_lines needs perception='stereo': the surrogate does not imitate the "
-                "near-horizontal image lines"
+                "ground_lines needs perception='stereo' or 'stereo_means': "
+                f"perception={perception.value!r} extracts no near-horizontal image lines"
             )
         if not perception.renders_images and self.observation.has_images:
             raise ValueError(
-                "perception='surrogate' renders no images: observation_mode must be 'model', "
-                f"got {self.observation.observation_mode.value!r}"
+                f"perception={perception.value!r} renders no images: observation_mode must not "
+                f"hold them, got {self.observation.observation_mode.value!r}"
             )
 
     # ------------------------------------------------------------------ derived

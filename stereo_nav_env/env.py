@@ -3,9 +3,10 @@
 Each step: the physics advances and the head pans (:mod:`stereo_nav_env.sim.world`), the
 perception turns the view into an environment model (:mod:`stereo_nav_env.perception`: the stereo
 renders the pair with pixel noise from ``np_random`` and runs the modeling pipeline, the surrogate
-imitates it), with ``memory`` on the view and any contact are fused into the episode's memory and
-its model is built (:mod:`stereo_nav_env.fusion`, :mod:`modeling.memory`), the observation is
-packed (:mod:`stereo_nav_env.observation`), the reward is computed (:mod:`stereo_nav_env.rewards`,
+imitates it, issue 43's ``stereo_means``, ``dense`` and ``truth`` ablate it), with ``memory`` on
+the view and any contact are fused into the episode's memory and its model is built
+(:mod:`stereo_nav_env.fusion`, :mod:`modeling.memory`), the observation is packed
+(:mod:`stereo_nav_env.observation`), the reward is computed (:mod:`stereo_nav_env.rewards`,
 :mod:`stereo_nav_env.sim.geodesic`) and the models are compared with the truth
 (:mod:`stereo_nav_env.diagnostics`). ``render()`` draws with
 :mod:`stereo_nav_env.rendering.viewer`. Configuration: :mod:`stereo_nav_env.config`.
@@ -204,7 +205,10 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
     ``env.unwrapped.config``, its stereo rig ``env.unwrapped.rig``. ``perception="surrogate"``
     renders nothing: the floor observation comes from the true scene, the stereo's error model
     and its measured rates (:mod:`stereo_nav_env.perception.surrogate.sensor`), then the same
-    modeling, packing, rewards and diagnostics; the observation must then hold no images.
+    modeling, packing, rewards and diagnostics; the observation must then hold no images. So does
+    ``perception="truth"`` (the true visible outlines, no spread); ``"stereo_means"`` (the
+    stereo's segments at face value, one situation) and ``"dense"`` (OpenCV's semi-global
+    matching into an occupancy grid) render the same pair as the stereo (issue 43).
 
     ## Version History
     * v0: the model-based observation (situations, critical regions, raster), move-and-look

@@ -1,7 +1,8 @@
 """Evaluation: the seeded scene suite and the tools that measure the project.
 
 Owns the evaluation suite with its rules, intervals and tables (:mod:`.suite`), the pairing of
-two perceptions' runs (:mod:`.perception_cost`), the demo episode and its pictures
+two perceptions' runs (:mod:`.perception_cost`), the closed-loop ablation of the uncertainty model
+across perceptions (:mod:`.ablation`, issue 43), the demo episode and its pictures
 (:mod:`.demo`, :mod:`.drawing`), the stereo's accuracy against ground truth and OpenCV's SGBM
 (:mod:`.stereo_accuracy`) and the soak runs for leaks and hangs (:mod:`.soak`).
 

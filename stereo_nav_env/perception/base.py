@@ -54,12 +54,28 @@ class PerceptionName(str, Enum):
     SURROGATE = "surrogate"
     """Render nothing: the floor observation from the true scene and the stereo's measured error
     model, then the same model stages (issue 17)."""
+    STEREO_MEANS = "stereo_means"
+    """The rendered pair and segment stereo of ``stereo``, the floor observation taken at face
+    value before the model stages: no spread, each ambiguous segment its most probable
+    candidate, one situation (issue 43)."""
+    DENSE = "dense"
+    """The rendered pair through OpenCV's semi-global matching into an occupancy evidence grid,
+    its blobs' outlines as the floor observation, then the same model stages (issue 43)."""
+    TRUTH = "truth"
+    """Render nothing: the true visible outlines of the scene as the floor observation, with no
+    spread and no ambiguity, then the same model stages (issue 43)."""
 
     @property
     def renders_images(self) -> bool:
         """Whether this perception renders the stereo pair (the ``"images"`` and ``"both"``
         observations, ``env.render_stereo()`` and the image-line cues need it)."""
-        return self is PerceptionName.STEREO
+        return self in (PerceptionName.STEREO, PerceptionName.STEREO_MEANS, PerceptionName.DENSE)
+
+    @property
+    def has_image_lines(self) -> bool:
+        """Whether this perception extracts image segments from the rendered pair, so that
+        ``ground_lines`` (the lowest near-horizontal image lines as floor segments) applies."""
+        return self in (PerceptionName.STEREO, PerceptionName.STEREO_MEANS)
 
 
 def structurally_equal(a: Any, b: Any) -> bool:

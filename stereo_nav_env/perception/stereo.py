@@ -7,16 +7,24 @@ ICRA-94) runs on the noisy grey images: :func:`modeling.stereo.pipeline.stereo_t
 (segments in both images, matching, floor segments with uncertainty, plain faces, optional
 ground lines), each stage timed through its ``on_stage`` callback, then
 :func:`modeling.model.build.build_model` (obstacles, critical regions, occlusion, situations).
+
+:class:`StereoMeansPerception` (``perception="stereo_means"``, issue 43's ablation) is the same
+with the floor observation taken at face value before the model stages
+(:func:`modeling.observation.face_value`: endpoints at their means with a negligible covariance,
+each ambiguous segment its most probable candidate): one situation, no undecided gap. The dense
+perception (:mod:`stereo_nav_env.perception.dense`) renders the same noisy pair through
+:meth:`StereoPerception.noisy_grey_pair`.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from modeling.model.build import build_model
+from modeling.observation import face_value
 from modeling.stereo.pipeline import stereo_to_floor, to_gray
 from modeling.stereo.rig import HeadPose, StereoRig
 from modeling.types import UInt8Image
@@ -39,7 +47,7 @@ from stereo_nav_env.sim.scenes import Scene
 if TYPE_CHECKING:  # pragma: no cover
     from stereo_nav_env.config import EnvConfig
 
-__all__ = ["StereoPerception", "perceive"]
+__all__ = ["StereoMeansPerception", "StereoPerception", "perceive"]
 
 
 def perceive(
@@ -54,6 +62,7 @@ def perceive(
     max_situations: int,
     close_faces: bool = True,
     ground_lines: bool = False,
+    at_face_value: bool = False,
     stopwatch: Stopwatch | None = None,
 ) -> ComparableModel:
     """The environment model of one rectified pair (the whole modeling pipeline).
@@ -71,6 +80,8 @@ def perceive(
             (:func:`modeling.stereo.faces.close_faces`).
         ground_lines: Add the floor segments of the lowest near-horizontal lines
             (:func:`modeling.stereo.ground_lines.add_ground_lines`).
+        at_face_value: Take the floor observation at face value before the model stages
+            (:func:`modeling.observation.face_value`: no spread, no ambiguity).
         stopwatch: If given, its laps ``segments``, ``matching``, ``triangulation`` and
             ``modeling`` are added to (its clock must have been lapped just before the call).
 
@@ -88,6 +99,8 @@ def perceive(
         on_stage=watch.lap,
         max_height_m=robot_height_m,
     )
+    if at_face_value:
+        floor = face_value(floor)
     model = build_model(floor, robot_width_m, eps=eps, max_situations=max_situations)
     out = ComparableModel.of(model)
     watch.lap("modeling")
@@ -104,6 +117,8 @@ class StereoPerception(Perception):
     """
 
     name = PerceptionName.STEREO
+    at_face_value: ClassVar[bool] = False
+    """Whether the floor observation is taken at face value before the model stages."""
 
     def __init__(self, config: EnvConfig) -> None:
         super().__init__(config)
@@ -115,6 +130,15 @@ class StereoPerception(Perception):
         self, scene: Scene, head_pose: HeadPose, rng: np.random.Generator, watch: Stopwatch
     ) -> ComparableModel:
         """Render, add noise, run the pipeline (:meth:`Perception.perceive`)."""
+        left, right = self.noisy_grey_pair(scene, head_pose, rng, watch)
+        return self.model_of_pair(left, right, head_pose, watch)
+
+    def noisy_grey_pair(
+        self, scene: Scene, head_pose: HeadPose, rng: np.random.Generator, watch: Stopwatch
+    ) -> tuple[UInt8Image, UInt8Image]:
+        """The rendered pair from ``head_pose`` with its pixel noise drawn from ``rng``, as grey
+        uint8 (H, W) images (laps ``render`` and ``noise``; the RGB pair is kept for
+        :meth:`stereo_pair`)."""
         cfg = self.config
         rig = cfg.rig
         sigma = cfg.camera.pixel_noise_std
@@ -136,12 +160,20 @@ class StereoPerception(Perception):
                 for image, lv in zip(self._clean_pair, levels, strict=True)
             ]
         watch.lap("noise")
+        return grey[0], grey[1]
+
+    def model_of_pair(
+        self, left: UInt8Image, right: UInt8Image, head_pose: HeadPose, watch: Stopwatch
+    ) -> ComparableModel:
+        """The model of the noisy grey pair: the paper's pipeline (:func:`perceive`)."""
+        cfg = self.config
         return perceive(
-            grey[0],
-            grey[1],
-            rig,
+            left,
+            right,
+            cfg.rig,
             head_pose,
             ground_lines=cfg.ground_lines,
+            at_face_value=self.at_face_value,
             stopwatch=watch,
             **self.model_settings(),
         )
@@ -158,3 +190,16 @@ class StereoPerception(Perception):
                 right = add_pixel_noise(right, noise[1])
             self._pair = (left, right)
         return self._pair
+
+
+class StereoMeansPerception(StereoPerception):
+    """``perception="stereo_means"``: the same rendered pair and segment stereo as
+    :class:`StereoPerception`, the floor observation taken at face value before the model stages
+    (:func:`modeling.observation.face_value`): every endpoint at its mean with a negligible
+    covariance (:data:`modeling.observation.NEGLIGIBLE_STD_M`, 1 micrometre: a zero one is
+    refused), every ambiguous segment its most probable candidate (or nothing, where "no
+    obstacle here" is more probable). One situation, of probability 1; every gap passable or
+    impassable."""
+
+    name = PerceptionName.STEREO_MEANS
+    at_face_value = True

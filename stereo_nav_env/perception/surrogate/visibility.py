@@ -62,6 +62,7 @@ __all__ = [
     "head_array",
     "in_both_images",
     "parts_of",
+    "seen_heights",
     "seen_runs",
     "seen_runs_reference",
     "sight_blocked",
@@ -502,11 +503,32 @@ def seen_runs(
     ``[low, high]`` that no part hides from the head (the module docstring's sweep); one
     compiled pass over the edges and parts (:func:`seen_runs_reference` is the same in NumPy,
     and a test holds them equal)."""
+    return seen_heights(edges, head, edges.corner_xy[cand], edges.corner_part[cand], low, high)
+
+
+def seen_heights(
+    edges: SceneEdges,
+    head: HeadPose,
+    points: FloatArray,
+    own_part: IntArray,
+    low: FloatArray,
+    high: FloatArray,
+) -> tuple[FloatArray, FloatArray]:
+    """The longest run of heights within ``[low, high]`` (n,) of the vertical line through each
+    floor point ``points`` (n, 2) of part ``own_part`` (n,) (an index into the parts of
+    ``edges``) that no part hides from the head: :func:`seen_runs` for any points on the parts'
+    outlines, not only their corners (the sight line stops ``PULL_BACK_M`` short of the point;
+    one that crosses the point's own part hides it whole).
+
+    Returns:
+        ``(low, high)``: (n,) the longest unhidden run of each point's heights, metres (new
+        arrays); ``high <= low`` where none of ``[low, high]`` is seen.
+    """
     return seen_runs_loop(
         sight_of(head),
         parts_of(edges),
-        np.ascontiguousarray(edges.corner_xy[cand]),
-        edges.corner_part[cand],
+        np.ascontiguousarray(points, dtype=np.float64),
+        np.ascontiguousarray(own_part, dtype=np.int64),
         np.asarray(low, dtype=np.float64),
         np.asarray(high, dtype=np.float64),
     )

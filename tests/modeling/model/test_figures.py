@@ -333,6 +333,16 @@ def test_plot_model_draws_one_panel_per_situation_like_figs_6_and_11() -> None:
         plot_model(m, max_panels=0)
     with pytest.raises(ValueError, match="situation"):
         plot_model(m, ax=ax, situation=2)
+    # Side by side (plot_models): obstacles numbered unless number_obstacles is False.
+    from modeling.plotting import plot_models
+
+    for number in (True, False):
+        side = plot_models([m, m], titles=["one", "two"], number_obstacles=number)
+        panels = [a for a in side.axes if a.get_title()]
+        assert [a.get_title().split("\n")[0] for a in panels] == ["one", "two"]
+        for a in panels:
+            texts = {t.get_text() for t in a.texts}
+            assert ("0" in texts) is number and {"a1", "a2"} <= texts
     # matplotlib is imported lazily.
     code = "import sys, modeling.plotting; print('matplotlib' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
