@@ -57,16 +57,22 @@ def test_registry_names_and_errors() -> None:
         "cautious",
         "planner",
         "oracle",
+        "learned",
+        "learned-fixed-head",
+        "learned:PATH",
+        "learned-fixed-head:PATH",
         "ppo:PATH",
         "rllib:PATH",
     }
-    for name in ("random", "greedy", "cautious", "planner", "oracle"):
+    for name in ("random", "greedy", "cautious", "planner", "oracle", "learned"):
         agent = make_agent(name)
         assert isinstance(agent, Agent) and agent.name == name
     with pytest.raises(ValueError, match="unknown agent 'nope'"):
         make_agent("nope")
     with pytest.raises(ValueError, match="path must name a saved PPO model"):
         make_agent("ppo:/no/such/model.zip")
+    with pytest.raises(FileNotFoundError, match="no trained policy"):
+        make_agent("learned:/no/such/policy.pt")
 
 
 def test_looks_are_counted_from_the_pan_target() -> None:
