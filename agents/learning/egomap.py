@@ -91,7 +91,6 @@ from agents.planning.gridmap import (
     GridSpec,
     observed_segments,
     rasterize_lines,
-    rasterize_obstacles,
     top_situations,
 )
 from agents.planning.planner import PlannerCore
@@ -330,9 +329,10 @@ class EgoMap:
         view = self._view_layer(model, np.array([x, y]))
         gates, closed = self._gate_layer()
         value = self._cost_to_go(view, closed)
+        here = float(value[tuple(core.spec.cell_of(np.array([[x, y]]))[0])])
         return {
-            "map": self._egocentric(view, gates, value, pose),
-            "state": self._state(model, value, pose, collided),
+            "map": self._egocentric(view, gates, value, here, pose),
+            "state": self._state(model, value, here, pose, collided),
         }
 
     def _view_layer(self, model: EnvironmentModel, xy: FloatArray) -> FloatArray:
@@ -341,11 +341,7 @@ class EgoMap:
         assert core is not None
         spec, rng = core.spec, self.navigator.obstacle_range_m
         sits = top_situations(model, self.navigator.max_situations)
-        total = sum(s.probability for s in sits) or 1.0
-        layer = np.zeros(spec.shape)
-        for s in sits:
-            cells = rasterize_obstacles(spec, s, viewpoint_xy=xy, max_range_m=rng)
-            layer += (s.probability / total) * cells
+        layer = core.occupancy.expected_obstacles(sits, xy, rng) if sits else np.zeros(spec.shape)
         lines = rasterize_lines(spec, observed_segments(model), viewpoint_xy=xy, max_range_m=rng)
         return np.maximum(layer, lines.astype(np.float64))
 
@@ -382,13 +378,13 @@ class EgoMap:
         view: FloatArray,
         gates: FloatArray,
         value: FloatArray,
+        here: float,
         pose: tuple[float, float, float, float],
     ) -> NDArray[np.uint8]:
         core = self.core
         assert core is not None and self._outline is not None and self._goal_disc is not None
         occ = core.occupancy
         x, y, heading, _ = pose
-        here = value[tuple(core.spec.cell_of(np.array([[x, y]]))[0])]
         if math.isfinite(here):
             rel = np.clip((value - here) / self.config.cost_range_m, -1.0, 1.0)
             cost = np.where(np.isfinite(value), 128.0 + 127.0 * rel, 255.0)
@@ -456,6 +452,7 @@ class EgoMap:
         self,
         model: EnvironmentModel,
         value: FloatArray,
+        here: float,
         pose: tuple[float, float, float, float],
         collided: bool,
     ) -> NDArray[np.float32]:
@@ -468,7 +465,6 @@ class EgoMap:
         state[0] = min(1.0, math.hypot(dx, dy) / cfg.goal_range_m)
         state[1], state[2] = math.cos(bearing), math.sin(bearing)
         route = _descent_point(value, core.spec, np.array([x, y]), cfg.route_ahead_m)
-        here = value[tuple(core.spec.cell_of(np.array([[x, y]]))[0])]
         state[3] = min(1.0, here / (2.0 * cfg.goal_range_m)) if math.isfinite(here) else 1.0
         if route is not None:
             rb = math.atan2(route[1] - y, route[0] - x) - heading

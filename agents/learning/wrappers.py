@@ -20,7 +20,6 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from numpy.typing import NDArray
 
 from agents.learning.egomap import EgoMap, EgoMapConfig
 from agents.planning.config import NavigatorConfig
@@ -138,8 +137,3 @@ def make_training_env(
     if teacher is not None:
         env = PlannerTeacher(env, teacher)
     return EgoMapObservation(env, egomap)
-
-
-def teacher_actions(info: dict[str, Any], n: int) -> NDArray[np.float32]:
-    """(n, 3) the teacher's actions of a vector env's ``info``."""
-    return np.asarray(info["teacher_action"], dtype=np.float32).reshape(n, 3)

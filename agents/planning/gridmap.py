@@ -305,11 +305,11 @@ class OccupancyMap:
         if not sits:
             return
         vp = np.asarray(model.observation.viewpoint[:2])
-        expected = self._expected(sits, vp, self.insert_range_m)
+        expected = self.expected_obstacles(sits, vp, self.insert_range_m)
         if fused is not None and self.fused_range_m > 0.0:
             kept = top_situations(fused, max_situations)
             if kept:
-                near = self._expected(kept, vp, self.fused_range_m, first_only=True)
+                near = self.expected_obstacles(kept, vp, self.fused_range_m, first_only=True)
                 expected = np.maximum(expected, near)
         expected = np.maximum(
             expected,
@@ -325,7 +325,7 @@ class OccupancyMap:
         self.log_odds[seen] -= self.miss * (1.0 - expected[seen])
         np.clip(self.log_odds, -self.clamp, 2 * self.clamp, out=self.log_odds)
 
-    def _expected(
+    def expected_obstacles(
         self,
         sits: list[Situation],
         viewpoint_xy: FloatArray,

@@ -25,7 +25,9 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
+from modeling.model.build import build_model
 from modeling.model.records import EnvironmentModel
+from modeling.observation import FloorObservation
 from modeling.stereo.rig import HeadPose
 from stereo_nav_env.rendering.renderer import StereoRenderer
 from stereo_nav_env.sim.scenes import Scene
@@ -190,6 +192,19 @@ class Perception(abc.ABC):
             "max_situations": cfg.model_max_situations,
             "close_faces": cfg.close_faces,
         }
+
+    def model_of(self, floor: FloorObservation, watch: Stopwatch) -> ComparableModel:
+        """The model stages on ``floor`` with :meth:`model_settings` (lap ``modeling``)."""
+        settings = self.model_settings()
+        model = build_model(
+            floor,
+            settings["robot_width_m"],
+            eps=settings["eps"],
+            max_situations=settings["max_situations"],
+        )
+        out = ComparableModel.of(model)
+        watch.lap("modeling")
+        return out
 
     def renderer(self, scene: Scene) -> StereoRenderer:
         """The renderer of ``scene`` (made on first use, its scene swapped when it changes)."""

@@ -61,7 +61,6 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from modeling.model.build import build_model
 from modeling.observation import FloorObservation, FloorSegment
 from modeling.stereo.rig import HeadPose, StereoRig
 from modeling.stereo.triangulation import triangulate_points
@@ -478,15 +477,7 @@ class DensePerception(StereoPerception):
             options=self.options,
             stopwatch=watch,
         )
-        model = build_model(
-            floor,
-            settings["robot_width_m"],
-            eps=settings["eps"],
-            max_situations=settings["max_situations"],
-        )
-        out = ComparableModel.of(model)
-        watch.lap("modeling")
-        return out
+        return self.model_of(floor, watch)
 
     def __getstate__(self) -> dict[str, Any]:
         state = super().__getstate__()

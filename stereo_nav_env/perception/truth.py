@@ -36,7 +36,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from modeling.model.build import build_model
 from modeling.observation import FloorObservation, FloorSegment, negligible_covariance
 from modeling.stereo.rig import HeadPose, StereoRig
 from modeling.types import FloatArray, IntArray
@@ -254,12 +253,4 @@ class TruthPerception(Perception):
             max_height_m=settings["robot_height_m"],
         )
         watch.lap("triangulation")
-        model = build_model(
-            floor,
-            settings["robot_width_m"],
-            eps=settings["eps"],
-            max_situations=settings["max_situations"],
-        )
-        out = ComparableModel.of(model)
-        watch.lap("modeling")
-        return out
+        return self.model_of(floor, watch)
