@@ -26,7 +26,8 @@ Outputs in ``out_dir``: ``policy.pt`` (the network's weights and its metadata: o
 version and geometry, episode rules, bins, the command line, the record),
 ``checkpoints/phaseK.pt`` (the policy after phase K: 0 the cloning, K the K-th round),
 ``record.json`` (per
-phase: steps, episodes, success rate of the driving policy, loss, minutes) and ``curve.csv``
+phase: steps, episodes, success rate of the driving policy, loss, held-out loss and bin accuracy
+per command, minutes) and ``curve.csv``
 (per finished training episode: env steps so far, length, success, phase, beta: the learning
 curve of the driving policy, the teacher's during the demonstrations;
 :func:`agents.learning.seeds.plot_seed_curves` draws it).
@@ -235,6 +236,9 @@ class ImitationConfig:
         epochs: Passes over the aggregated data after the demonstrations and after each round.
         batch_size: Minibatch size.
         learning_rate: Adam step size.
+        validation_share: Share of the samples held out of the fits (drawn per sample as it is
+            stored); each phase's record gives the loss and the per-command bin accuracy on
+            them, to tell an under-fitted student from one that fits but drives badly.
         bins: Bins per command.
         width: Hidden width of the MLP.
         env_kwargs: Keyword arguments of ``gym.make("StereoNav-v1", ...)`` (the suite's episode
@@ -258,6 +262,7 @@ class ImitationConfig:
     epochs: int = 2
     batch_size: int = 256
     learning_rate: float = 1e-3
+    validation_share: float = 0.05
     bins: int = 11
     width: int = 256
     env_kwargs: dict[str, Any] = field(
@@ -287,6 +292,10 @@ class ImitationConfig:
                 raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
         if self.bins < 3:
             raise ValueError(f"bins must be at least 3, got {self.bins}")
+        if not 0.0 <= self.validation_share < 0.5:
+            raise ValueError(
+                f"validation_share must lie in [0, 0.5), got {self.validation_share!r}"
+            )
         if not self.betas or any(not 0.0 <= b <= 1.0 for b in self.betas):
             raise ValueError(f"betas must be probabilities, got {self.betas!r}")
         if len(self.weights) != len(self.families):
@@ -328,7 +337,8 @@ class ImitationResult:
 
     Attributes:
         policy_path: The trained policy (``policy.pt``).
-        record: Per phase: steps, episodes, success rate of the driving policy, loss, minutes.
+        record: Per phase: steps, episodes, success rate of the driving policy, loss, the
+            held-out loss and per-command bin accuracy, minutes.
         minutes: Wall time of the whole recipe, minutes.
         steps: Env steps collected.
     """
@@ -340,23 +350,33 @@ class ImitationResult:
 
 
 class _Dataset:
-    """The aggregated (map, state, teacher action) samples, grown in chunks."""
+    """The aggregated (map, state, teacher action) samples, grown in chunks; each sample is
+    held out for validation with probability ``validation_share`` when it is stored."""
 
-    def __init__(self) -> None:
+    def __init__(self, validation_share: float = 0.0, seed: int = 0) -> None:
         self.maps: list[NDArray[np.uint8]] = []
         self.states: list[NDArray[np.float32]] = []
         self.actions: list[NDArray[np.float32]] = []
+        self.held_out: list[NDArray[np.bool_]] = []
+        self.validation_share = validation_share
+        self._rng = np.random.default_rng(seed)
 
     def add(self, maps: NDArray[np.uint8], states: NDArray[np.float32], actions: Any) -> None:
         self.maps.append(np.asarray(maps, dtype=np.uint8))
         self.states.append(np.asarray(states, dtype=np.float32))
         self.actions.append(np.asarray(actions, dtype=np.float32).reshape(-1, 3))
+        draws = self._rng.random(self.actions[-1].shape[0])
+        self.held_out.append(np.asarray(draws < self.validation_share, dtype=np.bool_))
 
-    def arrays(self) -> tuple[NDArray[np.uint8], NDArray[np.float32], NDArray[np.float32]]:
+    def arrays(
+        self,
+    ) -> tuple[NDArray[np.uint8], NDArray[np.float32], NDArray[np.float32], NDArray[np.bool_]]:
+        """Maps, states, actions and the held-out mask of every sample."""
         return (
             np.concatenate(self.maps),
             np.concatenate(self.states),
             np.concatenate(self.actions),
+            np.concatenate(self.held_out),
         )
 
     def __len__(self) -> int:
@@ -432,21 +452,22 @@ def _collect(
 
 def _fit(
     bundle: PolicyBundle, data: _Dataset, cfg: ImitationConfig, rng: np.random.Generator
-) -> float:
-    """``cfg.epochs`` passes of Adam over ``data``; the mean loss of the last pass."""
+) -> dict[str, float]:
+    """``cfg.epochs`` passes of Adam over the samples not held out; returns ``loss`` (the mean
+    of the last pass) and :func:`_validate`'s figures on the held-out ones."""
     import torch
 
-    maps, states, actions = data.arrays()
+    maps, states, actions, held_out = data.arrays()
     targets = encode_bins(actions, cfg.bins)
     net = bundle.net
     net.train()
     optimiser = torch.optim.Adam(net.parameters(), lr=cfg.learning_rate)
-    n = maps.shape[0]
+    train = np.flatnonzero(~held_out)
     last = math.nan
     for _ in range(cfg.epochs):
-        order = rng.permutation(n)
+        order = rng.permutation(train)
         total = 0.0
-        for start in range(0, n, cfg.batch_size):
+        for start in range(0, order.size, cfg.batch_size):
             idx = np.sort(order[start : start + cfg.batch_size])
             logits = net(torch.from_numpy(maps[idx]), torch.from_numpy(states[idx]))
             target = torch.from_numpy(targets[idx])
@@ -455,9 +476,44 @@ def _fit(
             loss.backward()  # type: ignore[no-untyped-call]
             optimiser.step()
             total += float(loss.detach()) * idx.size
-        last = total / n
+        last = total / max(order.size, 1)
     net.eval()
-    return last
+    held = np.flatnonzero(held_out)
+    return {"loss": last, **_validate(bundle, maps[held], states[held], actions[held])}
+
+
+def _validate(
+    bundle: PolicyBundle,
+    maps: NDArray[np.uint8],
+    states: NDArray[np.float32],
+    actions: NDArray[np.float32],
+) -> dict[str, float]:
+    """On held-out samples: ``val_loss`` (the training loss) and, per command, the share whose
+    most probable bin is the bin nearest the teacher's value (``val_accuracy_forward``,
+    ``..._turn``, ``..._pan``); NaN without samples."""
+    import torch
+
+    names = ("forward", "turn", "pan")
+    if actions.shape[0] == 0:
+        return {"val_loss": math.nan, **{f"val_accuracy_{k}": math.nan for k in names}}
+    bins = bundle.bins
+    logits = []
+    with torch.no_grad():
+        for start in range(0, actions.shape[0], 1024):
+            part = slice(start, start + 1024)
+            logits.append(
+                bundle.net(torch.from_numpy(maps[part]), torch.from_numpy(states[part])).numpy()
+            )
+    z = np.concatenate(logits).astype(np.float64)
+    z -= z.max(axis=-1, keepdims=True)
+    log_p = z - np.log(np.exp(z).sum(axis=-1, keepdims=True))
+    loss = float(-(encode_bins(actions, bins) * log_p).sum(axis=-1).mean())
+    nearest = np.rint((np.clip(actions, -1.0, 1.0) + 1.0) * 0.5 * (bins - 1)).astype(np.int64)
+    hit = log_p.argmax(axis=-1) == nearest
+    return {
+        "val_loss": loss,
+        **{f"val_accuracy_{k}": float(hit[:, i].mean()) for i, k in enumerate(names)},
+    }
 
 
 def train_imitation(
@@ -483,7 +539,7 @@ def train_imitation(
         "command": cfg.command,
     }
     bundle = _new_bundle(cfg.egomap, cfg.bins, cfg.width, meta)
-    data = _Dataset()
+    data = _Dataset(cfg.validation_share, cfg.seed)
     record: list[dict[str, Any]] = []  # one row per phase (the demonstrations, each round)
     curve: list[dict[str, Any]] = []  # one row per finished training episode
     total = cfg.demo_steps + cfg.rounds * cfg.round_steps
@@ -506,7 +562,7 @@ def train_imitation(
             finished = _collect(venv, state, student, beta, steps, data, rng, bar)
             name = "demonstrations" if phase == 0 else f"dagger {phase}"
             curve += [{**e, "phase": name, "beta": beta} for e in finished]
-            loss = _fit(bundle, data, cfg, rng)
+            fit = _fit(bundle, data, cfg, rng)
             successes = [e["success"] for e in finished]
             row: dict[str, Any] = {
                 "phase": name,
@@ -515,7 +571,7 @@ def train_imitation(
                 "episodes": len(finished),
                 "success_rate": float(np.mean(successes)) if successes else math.nan,
                 "samples": len(data),
-                "loss": loss,
+                **fit,
                 "minutes": (time.perf_counter() - t0) / 60.0,
             }
             record.append(row)

@@ -13,8 +13,11 @@ import pytest
 import stereo_nav_env  # noqa: F401  (registers the ids)
 from agents import make_agent
 from agents.evaluation.suite import SuiteConfig, suite_rules
+from agents.learning.egomap import EgoMapConfig
 from agents.learning.imitation import (
     ImitationConfig,
+    PolicyBundle,
+    _validate,
     decode_bins,
     encode_bins,
     load_policy,
@@ -87,6 +90,8 @@ def test_a_dagger_smoke_run_writes_a_policy_that_loads_and_acts(tmp_path: pathli
     result = train_imitation(cfg)
     assert [r["phase"] for r in result.record] == ["demonstrations", "dagger 1"]
     assert result.record[0]["samples"] >= 150 and result.record[1]["samples"] >= 250
+    for row in result.record:  # 5 % of ~150 samples held out: a few, never all
+        assert 0.0 <= row["val_accuracy_turn"] <= 1.0 and row["val_loss"] > 0.0
     policy = load_policy(result.policy_path)
     assert policy.meta["rules"] == cfg.rules()
     agent = make_agent(f"learned:{result.policy_path}")
@@ -115,7 +120,36 @@ def test_bad_recipes_are_named(tmp_path: pathlib.Path) -> None:
         ImitationConfig(out_dir=tmp_path, teacher="oracle")
     with pytest.raises(ValueError, match="betas"):
         ImitationConfig(out_dir=tmp_path, betas=(1.5,))
+    with pytest.raises(ValueError, match="validation_share"):
+        ImitationConfig(out_dir=tmp_path, validation_share=0.5)
     with pytest.raises(ValueError, match="info_models"):
         ImitationConfig(out_dir=tmp_path, env_kwargs={"info_models": True})
     with pytest.raises(FileNotFoundError, match="no trained policy"):
         load_policy(tmp_path / "none.pt")
+
+
+def test_validation_scores_a_student_against_the_teachers_nearest_bins() -> None:
+    import torch
+
+    bins = 11
+    rng = np.random.default_rng(3)
+    actions = rng.uniform(-1.0, 1.0, size=(40, 3)).astype(np.float32)
+    nearest = np.rint((actions + 1.0) * 0.5 * (bins - 1)).astype(np.int64)
+
+    class Echo(torch.nn.Module):
+        """Puts all its mass on the bin its state names (the state carries the answer)."""
+
+        def forward(self, image: torch.Tensor, state: torch.Tensor) -> torch.Tensor:
+            return 50.0 * torch.nn.functional.one_hot(state.long(), bins).float()
+
+    bundle = PolicyBundle(net=Echo(), egomap=EgoMapConfig(), bins=bins, meta={})
+    maps = np.zeros((40, 1, 2, 2), dtype=np.uint8)
+    right = _validate(bundle, maps, nearest.astype(np.float32), actions)
+    assert right["val_accuracy_forward"] == right["val_accuracy_turn"] == 1.0
+    wrong_turn = nearest.copy()
+    wrong_turn[:10, 1] = (wrong_turn[:10, 1] + 3) % bins  # a quarter of the turns off
+    scored = _validate(bundle, maps, wrong_turn.astype(np.float32), actions)
+    assert scored["val_accuracy_turn"] == 0.75 and scored["val_accuracy_pan"] == 1.0
+    assert scored["val_loss"] > right["val_loss"]
+    empty = _validate(bundle, maps[:0], nearest[:0].astype(np.float32), actions[:0])
+    assert np.isnan(empty["val_loss"])
