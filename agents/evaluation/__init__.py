@@ -4,7 +4,8 @@ Owns the evaluation suite with its rules, intervals and tables (:mod:`.suite`), 
 two perceptions' runs (:mod:`.perception_cost`), the closed-loop ablation of the uncertainty model
 across perceptions (:mod:`.ablation`, issue 43), the demo episode and its pictures
 (:mod:`.demo`, :mod:`.drawing`), the stereo's accuracy against ground truth and OpenCV's SGBM
-(:mod:`.stereo_accuracy`) and the soak runs for leaks and hangs (:mod:`.soak`).
+(:mod:`.stereo_accuracy`), the soak runs for leaks and hangs (:mod:`.soak`) and the step-by-step
+traces of model-based agents' stalls and detours (:mod:`.stall`, issue 42).
 
 May import: :mod:`modeling`, :mod:`stereo_nav_env` and the agents (through the registry).
 """

@@ -69,6 +69,8 @@ class CostGrid:
         soft_weight: Extra cost factor at ``hard_m`` (linear down to 0 at ``soft_m``).
         free_xy: (n, 2) points whose cells (and neighbours within ``hard_m``) are never blocked
             (the goal).
+        walls: (ny, nx) cells that no gate edge may jump over (bump marks: a gate edge crosses
+            the blocked cells beside its gap, but a contact on its way is certain), or ``None``.
     """
 
     def __init__(
@@ -81,6 +83,7 @@ class CostGrid:
         soft_m: float = 0.5,
         soft_weight: float = 3.0,
         free_xy: NDArray[np.floating] | None = None,
+        walls: BoolArray | None = None,
     ) -> None:
         if occupied.shape != spec.shape:
             raise ValueError(f"occupied must have shape {spec.shape}, got {occupied.shape}")
@@ -119,7 +122,7 @@ class CostGrid:
         self.gate_edges: list[GateEdge] = []
         for k, g in enumerate(self.gates):
             edge = self._gate_edge(k, g, hard_m)
-            if edge is not None:
+            if edge is not None and (walls is None or not self._crosses(edge, walls)):
                 self.gate_edges.append(edge)
         self._base = self._base_edges()
 
@@ -151,6 +154,16 @@ class CostGrid:
         a_xy, b_xy = self.spec.xy_of(np.array([a, b]))
         length = float(np.hypot(*(a_xy - mid)) + np.hypot(*(b_xy - mid)))
         return GateEdge(gate=k, a=a, b=b, a_xy=a_xy, b_xy=b_xy, mid_xy=mid, length_m=length)
+
+    def _crosses(self, edge: GateEdge, walls: BoolArray) -> bool:
+        """Whether ``edge``'s way (entry, middle of the gap, exit) passes a cell of ``walls``."""
+        line = np.array([[edge.a_xy, edge.mid_xy], [edge.mid_xy, edge.b_xy]])
+        pts = _line_points(line, 0.5 * self.spec.resolution_m)
+        pts = pts[self.spec.inside(pts)]
+        if not pts.shape[0]:
+            return False
+        rc = self.spec.cell_of(pts)
+        return bool(walls[rc[:, 0], rc[:, 1]].any())
 
     def _base_edges(self) -> tuple[IntArray, IntArray, FloatArray]:
         ny, nx = self.spec.shape

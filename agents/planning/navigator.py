@@ -35,7 +35,7 @@ from agents.base import (
 from agents.planning.config import NavigatorConfig, Policy
 from agents.planning.follower import PathFollower, RouteDriver
 from agents.planning.planner import Decision, Mode, PlannerCore
-from agents.planning.recovery import Recovery
+from agents.planning.recovery import Recovery, RecoveryEvents
 
 __all__ = ["Decision", "Mode", "ModelBasedAgent", "NavigatorConfig", "PlannerCore", "Policy"]
 
@@ -54,6 +54,8 @@ class ModelBasedAgent(Agent):
         config: The parameters, with ``policy``.
         core: The planner and occupancy map of the episode (``None`` before :meth:`reset`).
         decision: The decision being carried out (``None`` while backing off or before a plan).
+        events: What the recovery noticed at the last step (``None`` before the first).
+        escaping: Whether the last action was a back-off's (:mod:`agents.planning.recovery`).
     """
 
     def __init__(self, policy: Policy | str, config: NavigatorConfig | None = None) -> None:
@@ -67,6 +69,8 @@ class ModelBasedAgent(Agent):
         self.decision: Decision | None = None
         self._driver: RouteDriver | None = None
         self._recovery: Recovery | None = None
+        self.events: RecoveryEvents | None = None
+        self.escaping = False
         self._since_plan = 0
         self._look_steps = 0
 
@@ -88,6 +92,8 @@ class ModelBasedAgent(Agent):
         distance = float(np.hypot(*(np.array([x, y]) - goal)))
         self._recovery = Recovery(self.config, limits, (x, y, heading), distance)
         self.decision = None
+        self.events = None
+        self.escaping = False
         self._since_plan = 0
         self._look_steps = 0
 
@@ -104,6 +110,7 @@ class ModelBasedAgent(Agent):
             collided=bool(info.get("collision", False)),
             goal_distance_m=float(np.hypot(*(np.array([x, y]) - core.goal))),
         )
+        self.events = events
         if events.bump is not None:
             bump = events.bump
             core.bump(pose, backwards=bump.backwards, step=self.steps, normal=bump.normal)
@@ -114,6 +121,7 @@ class ModelBasedAgent(Agent):
             core.bump(pose, backwards=False, step=self.steps)
         replan = replan or events.replan
         escape = recovery.escape_command(heading, self.steps)
+        self.escaping = escape is not None
         if escape is not None:
             self.decision = None
             forward, turn = escape

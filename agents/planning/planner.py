@@ -281,6 +281,7 @@ class PlannerCore:
             hard_m=self.config.hard_m,
             soft_m=self.config.soft_m,
             free_xy=self.goal[None],
+            walls=self.occupancy.bumps >= 0,
         )
 
     def _plan_situation(

@@ -8,6 +8,11 @@ everything it touched lately. No movement for a while counts as a bump (forwards
 towards the goal for longer tells the agent to forget what it saw and its older bumps (a false
 obstacle may trap it).
 
+Bumped again while already moving along the contact normals, the robot is wedged (in a slot between
+two obstacles, say, whose faces the normals estimated from blocked motion, alternating, do not
+point out of): it retraces its own trail, the places it passed on its way in, which were free, back
+for up to ``_RETRACE_M`` (then it re-plans from there).
+
 :class:`Recovery` owns this state; each step the agent calls :meth:`Recovery.update` (what
 happened), :meth:`Recovery.escape_command` (the back-off's command, if one is under way) and
 :meth:`Recovery.commanded` (the forward command finally sent).
@@ -26,6 +31,21 @@ from modeling.geometry import wrap_angle
 from modeling.types import FloatArray
 
 __all__ = ["Bump", "Recovery", "RecoveryEvents"]
+
+_TRAIL_STEP_M = 0.1
+"""The trail keeps a position each time the robot has moved this far from the last one, metres."""
+
+_TRAIL_POINTS = 40
+"""The trail keeps this many positions at most (the latest)."""
+
+_RETRACE_M = 1.0
+"""A wedged robot retraces this much of its trail at most, metres."""
+
+_RETRACE_STEPS = 30
+"""A retrace ends after this many steps, or after ``_RETRACE_BLOCKED`` steps with a contact."""
+
+_RETRACE_BLOCKED = 4
+"""Contacts that blocked a retrace's motion before it gives up (and the agent re-plans)."""
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
@@ -101,6 +121,13 @@ class Recovery:
         self._anchor_step = 0
         self._closest = goal_distance_m
         self._closest_step = 0
+        # The trail of places passed (oldest first), the points of it being retraced (next
+        # first), contacts met while retracing, and bumps met during the current back-off.
+        self._trail: list[tuple[int, FloatArray]] = [(0, np.array([x, y]))]
+        self._trouble_step = 0
+        self._retrace: list[FloatArray] = []
+        self._retrace_blocked = 0
+        self._escape_bumps = 0
 
     @property
     def escaping(self) -> bool:
@@ -119,6 +146,8 @@ class Recovery:
         the goal; start or redirect a back-off where they call for one."""
         x, y, heading = pose
         here = np.array([x, y])
+        if not self._retrace and float(np.hypot(*(here - self._trail[-1][1]))) > _TRAIL_STEP_M:
+            self._trail = [*self._trail[1 - _TRAIL_POINTS :], (step, here)]
         bump = self._collided(here, heading, step) if collided else None
         lost = False
         if goal_distance_m < self._closest - 0.3:
@@ -133,6 +162,7 @@ class Recovery:
             self._anchor, self._anchor_step = here, step
             self._escape, self._escape_dir, self._escape_flips = self.config.backoff_steps, -1.0, 0
             self._escape_heading = None
+            self._retrace, self._escape_bumps = [], 0
             stalled = True
         self._last_pose = (x, y, heading)
         return RecoveryEvents(bump=bump, lost=lost, stalled=stalled)
@@ -143,6 +173,8 @@ class Recovery:
             return None
         self._escape -= 1
         self._escape_last = step
+        if self._retrace:
+            return self._retrace_command(heading)
         if self._escape_heading is None:
             return 0.6 * self._escape_dir, 0.0
         forward, turn = self._drive_along(self._escape_heading, heading)
@@ -159,6 +191,19 @@ class Recovery:
         cfg = self.config
         backwards = self._last_forward < 0
         normal = self._note_contact(here, heading, step)
+        if self._retrace:
+            # Touching while retracing the way in (a graze, or the contact it is leaving): keep
+            # going back, unless it keeps meeting contacts.
+            self._retrace_blocked += int(normal is not None)
+            if self._retrace_blocked >= _RETRACE_BLOCKED:
+                self._retrace, self._escape = [], 0
+            return Bump(backwards=backwards, normal=normal)
+        escaping = self._escape > 0 or step - self._escape_last <= 1
+        if escaping and self._escape_bumps >= 1 and self._start_retrace(here):
+            return Bump(backwards=backwards, normal=normal)
+        self._escape_bumps = self._escape_bumps + 1 if escaping else 0
+        if not escaping:
+            self._trouble_step = step
         away = self._away_from_contacts(step)
         self._escape_heading = None
         if self._escape > 0 and away is not None:
@@ -183,6 +228,44 @@ class Recovery:
             self._escape_dir = 1.0 if backwards else -1.0
             self._escape_flips = 0
         return Bump(backwards=backwards, normal=normal)
+
+    def _start_retrace(self, here: FloatArray) -> bool:
+        """Start retracing the trail back from ``here``: the places passed before the bump that
+        started this trouble (not the shuffles since), up to ``_RETRACE_M`` of them; whether
+        there was a trail to retrace."""
+        points: list[FloatArray] = []
+        length, last = 0.0, here
+        for k, p in reversed(self._trail):
+            d = float(np.hypot(*(p - last)))
+            if k >= self._trouble_step or (d < 1.5 * _TRAIL_STEP_M and not points):
+                continue  # shuffles since the bump, or where the robot is now
+            length += d
+            if length > _RETRACE_M:
+                break
+            points.append(p)
+            last = p
+        if not points:
+            return False
+        self._retrace, self._retrace_blocked = points, 0
+        self._escape, self._escape_heading, self._escape_bumps = _RETRACE_STEPS, None, 0
+        return True
+
+    def _retrace_command(self, heading: float) -> tuple[float, float]:
+        """``(forward, turn)`` towards the next point of the trail being retraced."""
+        here = self._last_pose[:2]
+        while self._retrace and math.dist(here, self._retrace[0]) < 0.5 * _TRAIL_STEP_M:
+            self._retrace.pop(0)
+        if not self._retrace:
+            self._escape = 0
+            return 0.0, 0.0
+        d = self._retrace[0] - np.array(here)
+        forward, turn = self._drive_along(math.atan2(float(d[1]), float(d[0])), heading)
+        reach = abs(forward) * self.limits.max_speed_m_s * self.limits.dt_s
+        if reach > 0.0:  # no farther than the point: circling it would never reach it
+            forward *= min(1.0, float(np.hypot(*d)) / reach)
+        if self._escape == 0:
+            self._retrace = []
+        return forward, turn
 
     def _note_contact(self, here: FloatArray, heading: float, step: int) -> FloatArray | None:
         """Estimate the contact normal of this step's collision from the motion it blocked.

@@ -221,6 +221,22 @@ def test_collision_report_records_each_contact_with_the_obstacle_hit(
     assert "first contacts 1: the map ever held 0 (held just before 0), never held 1" in printed
 
 
+def test_stall_report_lists_each_episode_with_its_patterns(
+    tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.syspath_prepend(str(ROOT / "scripts"))
+    out = tmp_path / "stalls.json"
+    rows = _script("stall_report").main(
+        [
+            "--episodes", "2", "--seed", "0", "--only", "1", "--perception", "surrogate",
+            "--max-steps", "30", "--json", str(out),
+        ]
+    )  # fmt: skip
+    assert json.loads(out.read_text()) == rows
+    assert [(r["index"], r["family"], r["steps"]) for r in rows] == [(1, "corridor", 30)]
+    assert {"revisit_steps", "route_flips", "gate_retries", "backoff_steps", "lost"} <= set(rows[0])
+
+
 def test_collision_report_with_memory_measures_what_the_fused_memory_held(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

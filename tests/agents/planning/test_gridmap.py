@@ -120,3 +120,25 @@ def test_cost_grid_crosses_a_gap_only_by_its_gate_edge() -> None:
     assert path[0] == start and path[-1] == goal
     assert any({u, v} == {edge.a, edge.b} for u, v in itertools.pairwise(path))
     assert 3.9 < value[start] < 5.5
+
+
+def test_no_gate_edge_jumps_over_a_bump_mark() -> None:
+    # Dev seed 4242, episode 10: a bump mark lay across a gate edge's way, which jumps over the
+    # blocked cells beside its gap, so the re-plan crossed there again and bumped six times.
+    spec = GridSpec.from_bounds((0.0, 0.0, 6.0, 4.0), 0.1)
+    model = model_of(wall_segments(3.0, [(0.0, 1.74), (2.26, 4.0)], 0.08), (1.0, 2.0, 0.0))
+    occupancy = OccupancyMap(spec)
+    occupancy.update(model)
+    gates = GateHistory()
+    gates.update(model, step=0)
+    (edge,) = CostGrid(spec, occupancy.occupied(), gates.gates, hard_m=0.2, soft_m=0.4).gate_edges
+    occupancy.add_bump(0.5 * (edge.a_xy + edge.mid_xy), 0.0, 0.6, step=1)  # on the entry side
+    walls = occupancy.bumps >= 0
+    grid = CostGrid(spec, occupancy.occupied(), gates.gates, hard_m=0.2, soft_m=0.4, walls=walls)
+    assert grid.gate_edges == []
+    elsewhere = np.zeros_like(walls)
+    elsewhere[0, 5] = True  # a bump away from the gap leaves the edge
+    grid = CostGrid(
+        spec, occupancy.occupied(), gates.gates, hard_m=0.2, soft_m=0.4, walls=elsewhere
+    )
+    assert len(grid.gate_edges) == 1
