@@ -126,7 +126,8 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
         "--ground-lines",
         action="store_true",
         help="the env's lowest near-horizontal image lines enter as floor segments "
-        "(EnvConfig.ground_lines, modeling.stereo.ground_lines; stereo only)",
+        "(EnvConfig.ground_lines, modeling.stereo.ground_lines; perceptions stereo, "
+        "stereo_means and surrogate)",
     )
     args = parser.parse_args(argv)
     cfg = suite_of(

@@ -350,7 +350,8 @@ class EnvConfig:
             between them (:mod:`modeling.stereo.faces`, an addition to the paper's pipeline).
         ground_lines: Whether the image's lowest near-horizontal lines enter as floor segments
             where they meet the floor (:mod:`modeling.stereo.ground_lines`, an addition to the
-            paper's pipeline; off by default; perceptions ``stereo`` and ``stereo_means`` only).
+            paper's pipeline; off by default; perceptions ``stereo`` and ``stereo_means``, and
+            ``surrogate``, which imitates those lines from the true scene).
         perception: :class:`~stereo_nav_env.perception.base.PerceptionName` (or its value):
             ``"stereo"`` (render the pair and run the stereo pipeline), ``"surrogate"`` (render
             nothing: the floor observation from the true scene and the stereo's error model and
@@ -362,8 +363,8 @@ class EnvConfig:
             (render nothing: the true visible outlines with no spread,
             :mod:`stereo_nav_env.perception.truth`). The last three are issue 43's ablation. A
             perception that renders nothing (``surrogate``, ``truth``) needs an observation
-            without images; ``ground_lines`` needs one that extracts image segments
-            (``stereo``, ``stereo_means``).
+            without images; ``ground_lines`` needs one with near-horizontal image lines
+            (``stereo``, ``stereo_means``, ``surrogate``: ``PerceptionName.has_ground_lines``).
         memory: Whether every view is fused into the episode's memory and its model built
             (``info["memory_model"]``, the ``memory_*`` diagnostics; the ``"memory"`` and
             ``"model_memory"`` observation modes need it). ``None`` (the default): on exactly when
@@ -438,10 +439,11 @@ class EnvConfig:
                 f"observation_mode {self.observation.observation_mode.value!r} observes the "
                 "memory: memory must be True"
             )
-        if not perception.has_image_lines and self.ground_lines:
+        if not perception.has_ground_lines and self.ground_lines:
+            with_lines = [p.value for p in PerceptionName if p.has_ground_lines]
             raise ValueError(
-                "ground_lines needs perception='stereo' or 'stereo_means': "
-                f"perception={perception.value!r} extracts no near-horizontal image lines"
+                f"ground_lines needs a perception among {with_lines}: "
+                f"perception={perception.value!r} has no near-horizontal image lines"
             )
         if not perception.renders_images and self.observation.has_images:
             raise ValueError(

@@ -41,9 +41,11 @@ __all__ = [
     "GROUND_SOURCE",
     "GroundLineOptions",
     "add_ground_lines",
+    "add_line_ground_segments",
     "floor_point_jacobians",
     "floor_points",
     "ground_segments",
+    "line_ground_segments",
     "lowest_lines",
 ]
 
@@ -157,11 +159,8 @@ def ground_segments(
     options: GroundLineOptions | None = None,
     **overrides: Any,
 ) -> list[FloorSegment]:
-    """The floor segments of the lowest near-horizontal lines of ``left`` (the module docstring).
-
-    Each kept line whose two ends meet the floor within ``ground_range_m`` gives the segment between
-    those floor points, each with the covariance ``J diag(end_sigma_px^2) J^T`` of its pixel error
-    (:func:`floor_point_jacobians`), heights 0 and ``source`` :data:`GROUND_SOURCE`.
+    """The floor segments of the lowest near-horizontal lines of ``left`` (the module docstring;
+    :func:`line_ground_segments` of ``left.horizontal``).
 
     Raises:
         ValueError: ``left``, ``rig`` or ``head_pose`` of the wrong type, an unknown option or
@@ -169,10 +168,36 @@ def ground_segments(
     """
     if not isinstance(left, ImageSegments):
         raise ValueError(f"left must be ImageSegments, got {type(left).__name__}")
+    return line_ground_segments(left.horizontal, rig, head_pose, options, **overrides)
+
+
+def line_ground_segments(
+    lines: FloatArray,
+    rig: StereoRig,
+    head_pose: HeadPose,
+    options: GroundLineOptions | None = None,
+    **overrides: Any,
+) -> list[FloorSegment]:
+    """The floor segments of the lowest of the near-horizontal image lines ``lines``.
+
+    Of ``lines`` (k, 2, 2) ``[[u0, v0], [u1, v1]]`` px in the left image (an image's
+    ``ImageSegments.horizontal``, or the surrogate's imitation of them), the lowest ones
+    (:func:`lowest_lines`) whose two ends meet the floor within ``ground_range_m`` each give the
+    segment between those floor points, each end with the covariance
+    ``J diag(end_sigma_px^2) J^T`` of its pixel error (:func:`floor_point_jacobians`), heights 0
+    and ``source`` :data:`GROUND_SOURCE`.
+
+    Raises:
+        ValueError: ``lines`` not of shape (k, 2, 2), ``rig`` or ``head_pose`` of the wrong
+            type, an unknown option or one out of range.
+    """
     instance(rig, StereoRig, "rig")
     instance(head_pose, HeadPose, "head_pose")
     opts = with_overrides(options, GroundLineOptions, overrides)
-    lines = lowest_lines(left.horizontal, opts)
+    hor = np.asarray(lines, dtype=np.float64)
+    if hor.ndim != 3 or hor.shape[1:] != (2, 2):
+        raise ValueError(f"lines must have shape (k, 2, 2), got {hor.shape}")
+    lines = lowest_lines(hor, opts)
     if lines.shape[0] == 0:
         return []
     ends = lines.reshape(-1, 2)
@@ -204,7 +229,24 @@ def add_ground_lines(
 ) -> FloorObservation:
     """``floor`` with the segments of :func:`ground_segments` added (itself when there are
     none)."""
-    added = ground_segments(left, rig, head_pose, options, **overrides)
+    return _with_segments(floor, ground_segments(left, rig, head_pose, options, **overrides))
+
+
+def add_line_ground_segments(
+    lines: FloatArray,
+    floor: FloorObservation,
+    rig: StereoRig,
+    head_pose: HeadPose,
+    options: GroundLineOptions | None = None,
+    **overrides: Any,
+) -> FloorObservation:
+    """``floor`` with the segments of :func:`line_ground_segments` of ``lines`` added (itself
+    when there are none)."""
+    return _with_segments(floor, line_ground_segments(lines, rig, head_pose, options, **overrides))
+
+
+def _with_segments(floor: FloorObservation, added: list[FloorSegment]) -> FloorObservation:
+    """``floor`` with ``added`` after its segments (itself when ``added`` is empty)."""
     if not added:
         return floor
     return FloorObservation(

@@ -75,9 +75,16 @@ class PerceptionName(str, Enum):
 
     @property
     def has_image_lines(self) -> bool:
-        """Whether this perception extracts image segments from the rendered pair, so that
-        ``ground_lines`` (the lowest near-horizontal image lines as floor segments) applies."""
+        """Whether this perception extracts image segments from the rendered pair (and with them
+        the near-horizontal image lines)."""
         return self in (PerceptionName.STEREO, PerceptionName.STEREO_MEANS)
+
+    @property
+    def has_ground_lines(self) -> bool:
+        """Whether ``ground_lines`` (the lowest near-horizontal image lines as floor segments,
+        :mod:`modeling.stereo.ground_lines`) applies: the perceptions that extract image lines,
+        and the surrogate, which imitates those lines from the true scene."""
+        return self.has_image_lines or self is PerceptionName.SURROGATE
 
 
 def structurally_equal(a: Any, b: Any) -> bool:

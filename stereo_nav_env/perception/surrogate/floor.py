@@ -8,6 +8,12 @@ runs as image lines. Both are compiled loops
 (:mod:`stereo_nav_env.perception.surrogate._kernels.visibility`) with NumPy references a test holds
 them equal to, bit for bit.
 
+``ground_lines=True`` (:mod:`modeling.stereo.ground_lines`) reads every near-horizontal line of the
+left image, not only those between two seen vertical edges: :func:`visible_ground_lines` gives the
+left-image lines of every floor side that faces the head, sampled finely along the side, where
+no part hides the floor and the left image shows it (its vertical edges may be outside the image:
+a wall seen face-on).
+
 Frames and units: world metres, floor plane x-y, z up; image pixels (u right, v down, (0, 0) the
 centre of the top-left pixel); camera depth ``Z`` along the optical axis, ``X`` to the right.
 """
@@ -36,11 +42,18 @@ from stereo_nav_env.perception.surrogate.visibility import (
 )
 
 __all__ = [
+    "GROUND_STEP_M",
     "floor_hidden",
     "floor_hidden_reference",
     "visible_floor_lines",
     "visible_floor_lines_reference",
+    "visible_ground_lines",
 ]
+
+
+GROUND_STEP_M = 0.05
+"""Spacing of :func:`visible_ground_lines`' samples along a floor side, metres: a seen run's ends
+are where the image or an occluding part cuts the line, to half this."""
 
 
 def floor_hidden_reference(edges: SceneEdges, head: HeadPose, points: FloatArray) -> BoolArray:
@@ -145,5 +158,100 @@ def visible_floor_lines(
         float(max_range_m),
         parts_of(edges),
         PULL_BACK_M,
+    )
+    return out
+
+
+def visible_ground_lines(
+    edges: SceneEdges,
+    head: HeadPose,
+    rig: StereoRig,
+    *,
+    max_range_m: float,
+    step_m: float = GROUND_STEP_M,
+) -> FloatArray:
+    """The left-image lines where the faces the head sees meet the floor, (k, 2, 2)
+    ``[[u, v], [u, v]]`` px, left end first: what the segment extraction of the left image would
+    find at the floor sides of the parts (the module docstring).
+
+    Every floor side whose outer face turns to the head and that comes within ``max_range_m`` of
+    it is sampled every ``step_m`` or less (at least twice); a sample is seen where it lies ahead
+    of the head, in the left image's columns and above its last row, and no part hides the floor
+    there (:func:`floor_hidden`). Each run of seen samples gives one line, from half a step
+    before its first sample to half a step after its last (clipped to the side). The lines are
+    whole, as the image shows them: :func:`modeling.stereo.ground_lines.line_ground_segments`
+    drops those that end beyond its range.
+
+    Args:
+        edges: The scene's edges.
+        head: Pose of the left optical centre (level).
+        rig: The stereo rig.
+        max_range_m: Sides farther than this from the head (their nearest point) are left out,
+            metres: the ground lines do not reach them.
+        step_m: Largest spacing of the samples along a side, metres (> 0).
+    """
+    if edges.line_ends.shape[0] == 0:
+        return np.zeros((0, 2, 2))
+    head_xy = np.array([head.x_m, head.y_m])
+    a_all, b_all = edges.line_ends[:, 0], edges.line_ends[:, 1]
+    ab_all = b_all - a_all
+    length = np.hypot(ab_all[:, 0], ab_all[:, 1])
+    t_near = np.clip(
+        np.einsum("li,li->l", head_xy - a_all, ab_all) / np.maximum(length, 1e-12) ** 2, 0.0, 1.0
+    )
+    nearest = a_all + t_near[:, None] * ab_all
+    near = np.hypot(*(nearest - head_xy).T) <= max_range_m
+    mid = 0.5 * (a_all + b_all)
+    facing = np.einsum("li,li->l", edges.line_normal, head_xy - mid) > 0.0
+    lines = np.flatnonzero(near & facing)
+    if lines.size == 0:
+        return np.zeros((0, 2, 2))
+    count = np.maximum(np.ceil(length[lines] / step_m).astype(np.int64), 2)
+    line_of = np.repeat(np.arange(lines.size), count)
+    first_of = np.cumsum(count) - count
+    index = np.arange(line_of.size) - first_of[line_of]
+    t = (index + 0.5) / count[line_of]
+    a, ab = a_all[lines], ab_all[lines]
+    pts = a[line_of] + t[:, None] * ab[line_of]
+    X, Z = camera_xz(pts, head)
+    f, (cx, cy), Hh = rig.focal_px, rig.principal_point_px, head.height_m
+    Zs = np.where(Z > 1e-6, Z, 1.0)
+    u = cx + f * X / Zs
+    seen = (Z > 1e-6) & (u >= -0.5) & (u <= rig.width_px - 0.5)
+    seen &= cy + f * Hh / Zs <= rig.height_px - 0.5
+    seen[seen] = ~floor_hidden(edges, head, pts[seen])
+    # runs of seen samples within each side: a start where the previous sample (of the same
+    # side) is unseen, a stop where the next one is
+    prev = np.concatenate([[False], seen[:-1]]) & (index > 0)
+    nxt = np.concatenate([seen[1:], [False]]) & (index < count[line_of] - 1)
+    starts = np.flatnonzero(seen & ~prev)
+    stops = np.flatnonzero(seen & ~nxt)
+    if starts.size == 0:
+        return np.zeros((0, 2, 2))
+    k = line_of[starts]
+    half = 0.5 / count[k]
+    ta = np.maximum(t[starts] - half, 0.0)
+    tb = np.minimum(t[stops] + half, 1.0)
+    ends = np.stack([a[k] + ta[:, None] * ab[k], a[k] + tb[:, None] * ab[k]], axis=1)
+    Xe, Ze = camera_xz(ends, head)
+    behind = Ze <= 1e-3  # an end stepped behind the head: its seen sample instead
+    if behind.any():
+        own = np.stack([pts[starts], pts[stops]], axis=1)
+        ends[behind] = own[behind]
+        Xe, Ze = camera_xz(ends, head)
+    img = np.stack([cx + f * Xe / Ze, cy + f * Hh / Ze], axis=-1)
+    swap = img[:, 0, 0] > img[:, 1, 0]
+    img[swap] = img[swap, ::-1]
+    # the image cuts a line at its first and last columns
+    (u0, v0), (u1, v1) = img[:, 0].T, img[:, 1].T
+    du = np.where(u1 - u0 > 1e-9, u1 - u0, 1.0)
+    lo, hi = -0.5, rig.width_px - 0.5
+    ua, ub = np.clip(u0, lo, hi), np.clip(u1, lo, hi)
+    out: FloatArray = np.stack(
+        [
+            np.stack([ua, v0 + (ua - u0) / du * (v1 - v0)], axis=-1),
+            np.stack([ub, v0 + (ub - u0) / du * (v1 - v0)], axis=-1),
+        ],
+        axis=1,
     )
     return out

@@ -41,6 +41,17 @@ stages after the segment extraction, then :func:`modeling.model.build.build_mode
    deviation grows as ``Z^2 / (f b) sigma_d``; the height band),
    :func:`modeling.stereo.faces.close_faces` (with the floor lines of step 1 as the image's
    near-horizontal lines), and :func:`modeling.model.build.build_model`.
+7. With ``ground_lines=True``, the stereo's ground-line cue (:mod:`modeling.stereo.ground_lines`)
+   before the model: the left-image lines where the faces the head sees meet the floor
+   (:func:`stereo_nav_env.perception.surrogate.floor.visible_ground_lines`: every floor side
+   facing the head, cut where a part hides the floor or the image ends, whether or not its
+   vertical edges are seen), each end moved by the lines' pixel error
+   ``N(0, end_sigma_px^2)`` in both directions, those near-horizontal and long enough as the
+   extraction sorts them (``SegmentOptions.min_angle_deg``, ``min_length_px``), then
+   :func:`modeling.stereo.ground_lines.line_ground_segments`: the lowest-line rule, the range and
+   the covariance ``J diag(end_sigma_px^2) J^T`` of the stereo's own ground lines. (The stereo
+   also reads top edges and shelf boards, which the lowest-line rule mostly drops; the surrogate
+   has only the floor contacts.)
 
 Every random draw comes from the generator passed in (the env's ``np_random``).
 """
@@ -56,6 +67,7 @@ from numpy.typing import NDArray
 from modeling.model.build import build_model
 from modeling.stereo.faces import FaceOptions
 from modeling.stereo.faces import close_faces as close_faces_of
+from modeling.stereo.ground_lines import GroundLineOptions, add_line_ground_segments
 from modeling.stereo.matching import match_segments
 from modeling.stereo.rig import HeadPose, StereoRig
 from modeling.stereo.segments import ImageSegments, SegmentOptions
@@ -73,7 +85,7 @@ from stereo_nav_env.perception.surrogate._kernels.segments import (
     piece_fits,
     segment_pieces_loop,
 )
-from stereo_nav_env.perception.surrogate.floor import visible_floor_lines
+from stereo_nav_env.perception.surrogate.floor import visible_floor_lines, visible_ground_lines
 from stereo_nav_env.perception.surrogate.photometry import ROWS, image_pieces, surface_arrays
 from stereo_nav_env.perception.surrogate.rates import SurrogateRates, default_rates, edge_classes
 from stereo_nav_env.perception.surrogate.visibility import SceneEdges, visible_edges
@@ -87,6 +99,7 @@ __all__ = [
     "perceive_surrogate",
     "piece_fits",
     "piece_fits_reference",
+    "surrogate_ground_lines",
     "surrogate_segments",
     "surrogate_segments_reference",
 ]
@@ -96,6 +109,8 @@ _SEGMENT_OPTIONS = SegmentOptions()
 """The extraction's default options (frozen: made once, not every step)."""
 _FACE_RANGE_M = FaceOptions().max_range_m
 """How far :func:`modeling.stereo.faces.close_faces` closes faces by default, metres."""
+_GROUND_OPTIONS = GroundLineOptions()
+"""The ground lines' default options, those of the stereo's (frozen: made once)."""
 
 
 PieceFits = tuple[
@@ -286,6 +301,28 @@ def _image_segments(
     )
 
 
+def surrogate_ground_lines(
+    edges: SceneEdges,
+    rig: StereoRig,
+    head: HeadPose,
+    rng: np.random.Generator,
+    options: SegmentOptions | None = None,
+    ground_options: GroundLineOptions | None = None,
+) -> FloatArray:
+    """The near-horizontal lines the stereo's extraction would find where the faces ``head``
+    sees meet the floor, (k, 2, 2) px in the left image, with their pixel error drawn from
+    ``rng`` (step 7 of the module docstring)."""
+    opts = _SEGMENT_OPTIONS if options is None else options
+    gopts = _GROUND_OPTIONS if ground_options is None else ground_options
+    lines = visible_ground_lines(edges, head, rig, max_range_m=gopts.ground_range_m)
+    lines = lines + rng.normal(scale=gopts.end_sigma_px, size=lines.shape)
+    d = lines[:, 1] - lines[:, 0]
+    length = np.hypot(d[:, 0], d[:, 1])
+    flat = np.abs(d[:, 1]) < opts.sin_min_angle * length
+    out: FloatArray = lines[flat & (length >= opts.min_length_px)]
+    return out
+
+
 def perceive_surrogate(
     edges: SceneEdges,
     rig: StereoRig,
@@ -297,6 +334,7 @@ def perceive_surrogate(
     eps: float,
     max_situations: int,
     close_faces: bool = True,
+    ground_lines: bool = False,
     rates: SurrogateRates | None = None,
     stopwatch: Stopwatch | None = None,
 ) -> ComparableModel:
@@ -313,6 +351,9 @@ def perceive_surrogate(
         max_situations: Most situations enumerated.
         close_faces: Close the "gaps" that are plain faces
             (:func:`modeling.stereo.faces.close_faces`).
+        ground_lines: Add the floor segments of the lowest near-horizontal lines, as the
+            stereo's ``ground_lines`` does (step 7 of the module docstring; draws from ``rng``
+            after every other draw, so the rest of the view is the same with it off).
         rates: The stereo's measured rates (default: :func:`default_rates`).
         stopwatch: If given, its laps ``segments``, ``matching``, ``triangulation`` and
             ``modeling`` are added to, as :func:`~stereo_nav_env.perception.stereo.perceive` does.
@@ -330,6 +371,14 @@ def perceive_surrogate(
     floor = triangulate_to_floor(matches, rig, head_pose, max_height_m=robot_height_m)
     if close_faces:
         floor = close_faces_of(left, floor, max_height_m=robot_height_m)
+    if ground_lines:
+        floor = add_line_ground_segments(
+            surrogate_ground_lines(edges, rig, head_pose, rng),
+            floor,
+            rig,
+            head_pose,
+            _GROUND_OPTIONS,
+        )
     watch.lap("triangulation")
     model = ComparableModel.of(
         build_model(floor, robot_width_m, eps=eps, max_situations=max_situations)
@@ -361,5 +410,6 @@ class SurrogatePerception(Perception):
             head_pose,
             rng,
             stopwatch=watch,
+            ground_lines=self.config.ground_lines,
             **self.model_settings(),
         )

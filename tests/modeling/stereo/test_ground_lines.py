@@ -12,9 +12,11 @@ from modeling.stereo.ground_lines import (
     GROUND_SOURCE,
     GroundLineOptions,
     add_ground_lines,
+    add_line_ground_segments,
     floor_point_jacobians,
     floor_points,
     ground_segments,
+    line_ground_segments,
     lowest_lines,
 )
 from modeling.stereo.pipeline import stereo_to_floor
@@ -97,6 +99,26 @@ def test_a_wall_bottom_seen_face_on_becomes_its_floor_segment() -> None:
     assert seg.source == GROUND_SOURCE
     np.testing.assert_allclose(seg.endpoints, truth[:, :2], atol=1e-9)
     np.testing.assert_array_equal(seg.height_m, [0.0, 0.0])
+
+
+def test_lines_given_as_an_array_give_the_segments_of_image_segments() -> None:
+    """``line_ground_segments`` (the surrogate's entry) is ``ground_segments`` of the lines."""
+    lines = np.stack(
+        [_pixels(_floor_line(LEVEL, d, 0.4), LEVEL) for d in (2.0, 3.0)]
+        + [_pixels(_floor_line(LEVEL, 2.0, 0.4), LEVEL) - [0.0, 30.0]]  # a top edge: dropped
+    )
+    left = ImageSegments.empty((240, 320), horizontal=lines)
+    want = ground_segments(left, RIG, LEVEL)
+    got = line_ground_segments(lines, RIG, LEVEL)
+    assert len(want) == len(got) == 1  # the 3 m line lies above the 2 m one: dropped too
+    np.testing.assert_array_equal(got[0].endpoints, want[0].endpoints)
+    np.testing.assert_array_equal(got[0].cov, want[0].cov)
+    floor = FloorObservation(viewpoint=np.array([LEVEL.x_m, LEVEL.y_m, LEVEL.heading_rad]))
+    added = add_line_ground_segments(lines, floor, RIG, LEVEL)
+    assert len(added.segments) == 1 and added.segments[0].source == GROUND_SOURCE
+    assert add_line_ground_segments(np.zeros((0, 2, 2)), floor, RIG, LEVEL) is floor
+    with pytest.raises(ValueError, match="lines"):
+        line_ground_segments(np.zeros((3, 4)), RIG, LEVEL)
 
 
 def test_a_top_edge_above_its_own_bottom_edge_is_dropped() -> None:

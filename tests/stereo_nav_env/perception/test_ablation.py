@@ -87,6 +87,8 @@ def test_every_name_has_its_implementation_and_says_whether_it_renders() -> None
     rendering = {p.value for p in PerceptionName if p.renders_images}
     assert rendering == {"stereo", "stereo_means", "dense"}
     assert {p.value for p in PerceptionName if p.has_image_lines} == {"stereo", "stereo_means"}
+    with_ground = {p.value for p in PerceptionName if p.has_ground_lines}
+    assert with_ground == {"stereo", "stereo_means", "surrogate"}
     for name in ABLATION:
         env = gym.make("StereoNav-v1", perception=name, diagnostics=False, **SMALL)
         try:

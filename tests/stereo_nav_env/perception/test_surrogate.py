@@ -239,8 +239,9 @@ def test_perception_is_a_validated_config_field() -> None:
     with pytest.raises(ValueError, match="observation_mode"):
         EnvConfig.from_kwargs(perception="surrogate", observation_mode="images")
     assert EnvConfig().ground_lines is False
+    assert EnvConfig.from_kwargs(perception="surrogate", ground_lines=True).ground_lines
     with pytest.raises(ValueError, match="ground_lines"):
-        EnvConfig.from_kwargs(perception="surrogate", ground_lines=True)
+        EnvConfig.from_kwargs(perception="truth", ground_lines=True)
     with pytest.raises(ValueError, match="ground_lines"):
         EnvConfig.from_kwargs(ground_lines="yes")
 
