@@ -106,9 +106,8 @@ def trace_episode(agent_name: str, spec: EpisodeSpec, cfg: SuiteConfig) -> Episo
 
     import stereo_nav_env  # noqa: F401  (registers the ids)
     from agents import make_agent
-    from agents.base import control_limits, robot_pose
-    from agents.baselines import true_shortest_route
-    from agents.evaluation.suite import ENV_ID
+    from agents.base import robot_pose
+    from agents.evaluation.suite import ENV_ID, reference_length_m
     from agents.planning.config import NavigatorConfig
     from agents.planning.navigator import ModelBasedAgent
 
@@ -119,9 +118,7 @@ def trace_episode(agent_name: str, spec: EpisodeSpec, cfg: SuiteConfig) -> Episo
     records: list[StepRecord] = []
     try:
         obs, info = env.reset(seed=spec.seed)
-        route = true_shortest_route(env)
-        radius = control_limits(env).goal_radius_m
-        reference = math.nan if route is None else max(route.length_m - radius, 1e-6)
+        reference = reference_length_m(env)
         agent.reset(env, seed=spec.seed)
         x, y, _, _ = robot_pose(env)
         last, path, success = np.array([x, y]), 0.0, False

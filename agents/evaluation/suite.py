@@ -56,6 +56,7 @@ __all__ = [
     "evaluate",
     "markdown_table",
     "plot_summary",
+    "reference_length_m",
     "run_episode",
     "split_of",
     "suite_env_config",
@@ -286,23 +287,31 @@ def _agent(name: str, navigator: Mapping[str, Any]) -> Any:
     return _AGENTS[key]
 
 
+def reference_length_m(env: Any) -> float:
+    """The episode's reference length for SPL, right after its reset: the robot's true shortest
+    route less the goal radius (NaN when there is none)."""
+    from agents.base import control_limits
+    from agents.baselines import true_shortest_route
+
+    route = true_shortest_route(env)
+    radius = control_limits(env).goal_radius_m
+    return math.nan if route is None else max(route.length_m - radius, 1e-6)
+
+
 def run_episode(agent_name: str, spec: EpisodeSpec, cfg: SuiteConfig) -> EpisodeResult:
     """Run ``agent_name`` for one episode of the suite."""
     os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
     import gymnasium as gym
 
     import stereo_nav_env  # noqa: F401  (registers the ids)
-    from agents.base import control_limits, robot_pose
-    from agents.baselines import true_shortest_route
+    from agents.base import robot_pose
 
     env = gym.make(ENV_ID, scenario=spec.family, **cfg.env_kwargs)
     agent = _agent(agent_name, cfg.navigator)
     t0 = time.perf_counter()
     try:
         obs, info = env.reset(seed=spec.seed)
-        route = true_shortest_route(env)
-        radius = control_limits(env).goal_radius_m
-        reference = math.nan if route is None else max(route.length_m - radius, 1e-6)
+        reference = reference_length_m(env)
         agent.reset(env, seed=spec.seed)
         x, y, _, _ = robot_pose(env)
         last = np.array([x, y])
