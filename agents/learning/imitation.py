@@ -256,10 +256,10 @@ class ImitationConfig:
     teacher: str = "planner"
     n_envs: int = 2
     demo_steps: int = 60_000
-    rounds: int = 3
-    round_steps: int = 30_000
-    betas: tuple[float, ...] = (0.3, 0.0)
-    epochs: int = 2
+    rounds: int = 4
+    round_steps: int = 22_500
+    betas: tuple[float, ...] = (0.5, 0.3, 0.1, 0.0)
+    epochs: int = 3
     batch_size: int = 256
     learning_rate: float = 1e-3
     validation_share: float = 0.05
