@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import pathlib
 
 import gymnasium as gym
 import numpy as np
@@ -12,6 +13,7 @@ import stereo_nav_env  # noqa: F401  (registers the ids)
 from agents import make_agent
 from agents.evaluation.suite import SuiteConfig, suite_rules
 from agents.learning.egomap import OBSERVATION_VERSION
+from agents.learning.imitation import ImitationConfig
 from agents.learning.learned import SHIPPED_POLICY, LearnedAgent
 
 
@@ -22,10 +24,15 @@ def test_the_shipped_policy_is_small_and_says_how_it_was_made() -> None:
     assert meta["observation_version"] == OBSERVATION_VERSION
     assert meta["rules"] == suite_rules(SuiteConfig())  # trained under the suite's rules
     assert meta["command"].startswith("python scripts/train.py --teacher planner")
+    rounds = ImitationConfig(out_dir=pathlib.Path("x")).rounds  # the recipe's, as shipped
+    assert meta["config"]["rounds"] == rounds
     assert [row["phase"] for row in meta["record"]] == [
         "demonstrations",
-        *(f"dagger {k}" for k in (1, 2, 3)),
+        *(f"dagger {k}" for k in range(1, rounds + 1)),
     ]
+    recipe = ImitationConfig(out_dir=pathlib.Path("x")).to_dict()
+    for key in ("demo_steps", "round_steps", "betas", "epochs", "bins", "width", "families"):
+        assert meta["config"][key] == recipe[key], key
 
 
 def test_make_agent_learned_acts_on_a_fresh_env_deterministically() -> None:
