@@ -450,6 +450,14 @@ def _collect(
     return episodes
 
 
+def _bin_loss(logits: Any, targets: Any) -> Any:
+    """The fits' loss (a torch scalar): cross-entropy of (n, 3, bins) ``logits`` against the soft
+    targets of :func:`encode_bins`, summed over the commands, averaged over the samples."""
+    import torch
+
+    return -(targets * torch.log_softmax(logits, dim=-1)).sum(dim=-1).mean()
+
+
 def _fit(
     bundle: PolicyBundle, data: _Dataset, cfg: ImitationConfig, rng: np.random.Generator
 ) -> dict[str, float]:
@@ -470,10 +478,9 @@ def _fit(
         for start in range(0, order.size, cfg.batch_size):
             idx = np.sort(order[start : start + cfg.batch_size])
             logits = net(torch.from_numpy(maps[idx]), torch.from_numpy(states[idx]))
-            target = torch.from_numpy(targets[idx])
-            loss = -(target * torch.log_softmax(logits, dim=-1)).sum(dim=-1).mean()
+            loss = _bin_loss(logits, torch.from_numpy(targets[idx]))
             optimiser.zero_grad()
-            loss.backward()  # type: ignore[no-untyped-call]
+            loss.backward()
             optimiser.step()
             total += float(loss.detach()) * idx.size
         last = total / max(order.size, 1)
@@ -504,12 +511,10 @@ def _validate(
             logits.append(
                 bundle.net(torch.from_numpy(maps[part]), torch.from_numpy(states[part])).numpy()
             )
-    z = np.concatenate(logits).astype(np.float64)
-    z -= z.max(axis=-1, keepdims=True)
-    log_p = z - np.log(np.exp(z).sum(axis=-1, keepdims=True))
-    loss = float(-(encode_bins(actions, bins) * log_p).sum(axis=-1).mean())
+    z = torch.from_numpy(np.concatenate(logits))
+    loss = float(_bin_loss(z, torch.from_numpy(encode_bins(actions, bins))))
     nearest = np.rint((np.clip(actions, -1.0, 1.0) + 1.0) * 0.5 * (bins - 1)).astype(np.int64)
-    hit = log_p.argmax(axis=-1) == nearest
+    hit = z.numpy().argmax(axis=-1) == nearest
     return {
         "val_loss": loss,
         **{f"val_accuracy_{k}": float(hit[:, i].mean()) for i, k in enumerate(names)},

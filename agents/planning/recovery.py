@@ -21,6 +21,7 @@ happened), :meth:`Recovery.escape_command` (the back-off's command, if one is un
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -123,7 +124,9 @@ class Recovery:
         self._closest_step = 0
         # The trail of places passed (oldest first), the points of it being retraced (next
         # first), contacts met while retracing, and bumps met during the current back-off.
-        self._trail: list[tuple[int, FloatArray]] = [(0, np.array([x, y]))]
+        self._trail: deque[tuple[int, FloatArray]] = deque(
+            [(0, np.array([x, y]))], maxlen=_TRAIL_POINTS
+        )
         self._trouble_step = 0
         self._retrace: list[FloatArray] = []
         self._retrace_blocked = 0
@@ -147,7 +150,7 @@ class Recovery:
         x, y, heading = pose
         here = np.array([x, y])
         if not self._retrace and float(np.hypot(*(here - self._trail[-1][1]))) > _TRAIL_STEP_M:
-            self._trail = [*self._trail[1 - _TRAIL_POINTS :], (step, here)]
+            self._trail.append((step, here))
         bump = self._collided(here, heading, step) if collided else None
         lost = False
         if goal_distance_m < self._closest - 0.3:

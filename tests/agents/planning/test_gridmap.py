@@ -99,13 +99,20 @@ def test_gate_history_matches_and_keeps_the_sharper_estimate() -> None:
     assert gate.failed and gate.p_passable == 0.0
 
 
-def test_cost_grid_crosses_a_gap_only_by_its_gate_edge() -> None:
+def _wall_with_one_gap() -> tuple[GridSpec, OccupancyMap, GateHistory]:
+    """A 6 m x 4 m grid, its map and gates after one view of a wall at x = 3 with a 0.52 m gap
+    (an undecided gate for the 0.5 m robot) seen from (1, 2)."""
     spec = GridSpec.from_bounds((0.0, 0.0, 6.0, 4.0), 0.1)
     model = model_of(wall_segments(3.0, [(0.0, 1.74), (2.26, 4.0)], 0.08), (1.0, 2.0, 0.0))
     occupancy = OccupancyMap(spec)
     occupancy.update(model)
     gates = GateHistory()
     gates.update(model, step=0)
+    return spec, occupancy, gates
+
+
+def test_cost_grid_crosses_a_gap_only_by_its_gate_edge() -> None:
+    spec, occupancy, gates = _wall_with_one_gap()
     (gate,) = gates.gates
     assert 0.05 < gate.p_passable < 0.95
     grid = CostGrid(spec, occupancy.occupied(), gates.gates, hard_m=0.2, soft_m=0.4)
@@ -125,12 +132,7 @@ def test_cost_grid_crosses_a_gap_only_by_its_gate_edge() -> None:
 def test_no_gate_edge_jumps_over_a_bump_mark() -> None:
     # Dev seed 4242, episode 10: a bump mark lay across a gate edge's way, which jumps over the
     # blocked cells beside its gap, so the re-plan crossed there again and bumped six times.
-    spec = GridSpec.from_bounds((0.0, 0.0, 6.0, 4.0), 0.1)
-    model = model_of(wall_segments(3.0, [(0.0, 1.74), (2.26, 4.0)], 0.08), (1.0, 2.0, 0.0))
-    occupancy = OccupancyMap(spec)
-    occupancy.update(model)
-    gates = GateHistory()
-    gates.update(model, step=0)
+    spec, occupancy, gates = _wall_with_one_gap()
     (edge,) = CostGrid(spec, occupancy.occupied(), gates.gates, hard_m=0.2, soft_m=0.4).gate_edges
     occupancy.add_bump(0.5 * (edge.a_xy + edge.mid_xy), 0.0, 0.6, step=1)  # on the entry side
     walls = occupancy.bumps >= 0
