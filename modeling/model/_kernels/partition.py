@@ -108,16 +108,10 @@ def _situation_groups(
     """The groups (:data:`FlipGroups`) of the rows ``order`` (m',) (sorted by the value that
     orders a group, ties by row) between two obstacles ``obst`` (S, N) of each situation."""
     n_sit = act.shape[0]
-    n = 0
-    for s in range(n_sit):
-        for q in range(order.shape[0]):
-            r = order[q]
-            a, b = ri[r], rj[r]
-            if act[s, a] and act[s, b] and obst[s, a] != obst[s, b]:
-                n += 1
-    rows = np.empty(n, dtype=np.int64)
-    sit = np.empty(n, dtype=np.int64)
-    key = np.empty(n, dtype=np.int64)
+    size = n_sit * order.shape[0]
+    rows = np.empty(size, dtype=np.int64)
+    sit = np.empty(size, dtype=np.int64)
+    key = np.empty(size, dtype=np.int64)
     k = 0
     for s in range(n_sit):
         k0 = k
@@ -135,6 +129,8 @@ def _situation_groups(
             srt = np.argsort(key[k0:k], kind="mergesort") + k0
             rows[k0:k] = rows[srt]
             key[k0:k] = key[srt]
+    n = k
+    rows = rows[:n].copy()
     n_groups = 0
     for k in range(n):
         if k == 0 or sit[k] != sit[k - 1] or key[k] != key[k - 1]:
@@ -286,38 +282,42 @@ def situation_partitions(
         e = rep[d]
         items[k : k + size[e]] = all_items[start[e] : start[e] + size[e]]
         k += size[e]
-    # The links of each distinct obstacle: the impassable rows inside it, in the situation it
-    # first occurs in (the same in every situation that has it: both items in it are active).
-    distinct_of = np.full(t, -1, dtype=np.int64)  # c -> its distinct obstacle, where it is rep
-    has_rep = np.zeros(n_sit, dtype=np.bool_)
-    for s in range(n_sit):
-        for c in range(first_obst[s], first_obst[s + 1]):
-            if rep[obstacle[c]] == c:
-                distinct_of[c] = obstacle[c]
-                has_rep[s] = True
+    # The links of each distinct obstacle: the impassable rows with both items in it (both are
+    # active wherever it occurs), from the rows of each item (by the row's first item).
+    row_start = np.zeros(n + 1, dtype=np.int64)
+    for k in range(n_imp):
+        row_start[ri[imp_list[k]] + 1] += 1
+    for x in range(n):
+        row_start[x + 1] += row_start[x]
+    rows_of = np.empty(n_imp, dtype=np.int64)
+    at = row_start[:n].copy()
+    for k in range(n_imp):  # ascending within each item
+        r = imp_list[k]
+        rows_of[at[ri[r]]] = r
+        at[ri[r]] += 1
+    member = np.full(n, -1, dtype=np.int64)
     link_counts = np.zeros(u, dtype=np.int64)
-    for s in range(n_sit):
-        if has_rep[s]:
-            for k in range(n_imp):
-                r = imp_list[k]
-                if act[s, ri[r]] and act[s, rj[r]]:
-                    d = distinct_of[first_obst[s] + obst[s, ri[r]]]
-                    if d >= 0:
-                        link_counts[d] += 1
-    link_start = np.zeros(u + 1, dtype=np.int64)
+    buffer = np.empty(n_imp, dtype=np.int64)
+    parts = []
     for d in range(u):
-        link_start[d + 1] = link_start[d] + link_counts[d]
-    links = np.empty(link_start[u], dtype=np.int64)
-    at = link_start[:u].copy()
-    for s in range(n_sit):
-        if has_rep[s]:
-            for k in range(n_imp):
-                r = imp_list[k]
-                if act[s, ri[r]] and act[s, rj[r]]:
-                    d = distinct_of[first_obst[s] + obst[s, ri[r]]]
-                    if d >= 0:
-                        links[at[d]] = r
-                        at[d] += 1
+        e = rep[d]
+        for k in range(start[e], start[e] + size[e]):
+            member[all_items[k]] = d
+        q = 0
+        for k in range(start[e], start[e] + size[e]):
+            x = all_items[k]
+            for h in range(row_start[x], row_start[x + 1]):
+                r = rows_of[h]
+                if member[rj[r]] == d:
+                    buffer[q] = r
+                    q += 1
+        link_counts[d] = q
+        parts.append(np.sort(buffer[:q]))
+    links = np.empty(link_counts.sum(), dtype=np.int64)
+    k = 0
+    for d in range(u):
+        links[k : k + link_counts[d]] = parts[d]
+        k += link_counts[d]
     und = _situation_groups(und_order, act, obst, n_obst, ri, rj)
     und_bounds = np.zeros(n_sit + 1, dtype=np.int64)
     for g in range(und[2].shape[0]):
