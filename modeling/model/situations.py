@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import heapq
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -88,21 +89,22 @@ def enumerate_situations(
         [(unit.items[k], unit.choices[k]) for k in o.tolist()]
         for unit, o in zip(remaining, order_u, strict=True)
     ]
-    actives: list[np.ndarray] = []
+    best = k_best(sorted_p, max_situations)
+    actives = np.repeat(elimination.active[None], len(best), axis=0)  # (S, N)
+    at_sit: list[int] = []  # the situation and item of each chosen candidate
+    at_item: list[int] = []
     probs: list[float] = []
     choices: list[dict[int, int]] = []
-    for prob, state in k_best(sorted_p, max_situations):
-        active = elimination.active.copy()
+    for k, (prob, state) in enumerate(best):
         choice: dict[int, int] = {}
-        chosen: list[int] = []
         for pos, rank in enumerate(state):
             unit_items, cands = ranked[pos][rank]
-            chosen.extend(unit_items)
+            at_item.extend(unit_items)
+            at_sit.extend([k] * len(unit_items))
             choice.update(cands)
-        active[chosen] = True
-        actives.append(active)
         probs.append(prob)
         choices.append(choice)
+    actives[at_sit, at_item] = True
     situations = _situations(ctx, actives, probs, choices, robot_width_m)
     situations.sort(key=lambda s: -s.probability)
     total = math.fsum(s.probability for s in situations)
@@ -137,12 +139,12 @@ class _Context:
         # Passable relations short enough to be a passage (the same in every situation).
         self.is_short_pas = (rel.kind == _PAS) & (rel.distance_m <= passage_max_m)
 
-    def partitions(self, actives: list[np.ndarray]) -> SituationPartitions:
+    def partitions(self, actives: np.ndarray | Sequence[np.ndarray]) -> SituationPartitions:
         """Obstacles of each situation whose items are ``actives``, each distinct one once, and
         its relations between them: all situations in one compiled pass
         (:func:`modeling.model.partitions.situation_partitions`)."""
         rel = self.rel
-        act = actives[0][None] if len(actives) == 1 else np.stack(actives)  # (S, N)
+        act = np.asarray(actives, dtype=bool).reshape(len(actives), self.ends.shape[0])
         return situation_partitions(
             act,
             self.ri,
@@ -277,40 +279,47 @@ def _passages(ctx: _Context, n_sit: int, groups: FlipGroups) -> list[list[Passag
     out: list[list[Passage]] = [[] for _ in range(n_sit)]
     if rows.size == 0:
         return out
-    rel = ctx.rel
+    # Situations share most passages (the same obstacle pair and row): each is made once.
     first = rows[starts]
-    for k, a_, b_, nw, d_, p_, r0 in zip(
-        s.tolist(),
-        lo.tolist(),
-        hi.tolist(),
-        _narrowest_points(ctx, first, flip),
-        rel.distance_m[first].tolist(),
-        rel.p_passable[first].tolist(),
-        first.tolist(),
-        strict=True,
-    ):
-        out[k].append(
-            Passage(obstacles=(a_, b_), narrowest=nw, width_mean_m=d_, p_passable=p_, relation=r0)
+    keys = list(zip(lo.tolist(), hi.tolist(), first.tolist(), flip.tolist(), strict=True))
+    index: dict[tuple[int, int, int, bool], int] = {}
+    for key in keys:
+        index.setdefault(key, len(index))
+    distinct = list(index)
+    rel = ctx.rel
+    at = np.array([key[2] for key in distinct], dtype=np.int64)
+    made = [
+        Passage(obstacles=(a_, b_), narrowest=nw, width_mean_m=d_, p_passable=p_, relation=r0)
+        for (a_, b_, r0, _), nw, d_, p_ in zip(
+            distinct,
+            _narrowest_points(ctx, at, np.array([key[3] for key in distinct], dtype=bool)),
+            rel.distance_m[at].tolist(),
+            rel.p_passable[at].tolist(),
+            strict=True,
         )
+    ]
+    for k, key in zip(s.tolist(), keys, strict=True):
+        out[k].append(made[index[key]])
     return out
 
 
 def _situations(
     ctx: _Context,
-    actives: list[np.ndarray],
+    actives: np.ndarray | Sequence[np.ndarray],
     probabilities: list[float],
     choices: list[dict[int, int]],
     robot_width_m: float,
 ) -> list[Situation]:
-    """Obstacles, critical regions and passages of each situation whose items are ``actives``.
+    """Obstacles, critical regions and passages of each situation whose items are ``actives``
+    ((S, N) bool, or S rows).
 
     Three passes: the partitions of all situations (each distinct obstacle once), then one batch
     for the distinct obstacles and region polygons, then the situations' regions and passages,
     all situations at once.
     """
-    if not actives:
-        return []
     n_sit = len(actives)
+    if n_sit == 0:
+        return []
     parts = ctx.partitions(actives)
     region_rows, which = _distinct(_group_rows(parts.und))
     obstacles, region_polygons = ctx.build(parts, region_rows)
