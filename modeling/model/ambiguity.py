@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import enum
 import itertools
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -337,8 +338,13 @@ def eliminate_units_of_one_effect(
     signatures: dict[int, list[Signature]] = {}
     while remaining:
         labels, und_pairs = _base_state(rel, active)
+        # as lists: the signatures read them item by item
+        label_of, is_active = labels.tolist(), active.tolist()
         signatures = {
-            u: [_signature(items, adjacency, labels, und_pairs, active) for items in units[u].items]
+            u: [
+                _signature(items, adjacency, label_of, und_pairs, is_active)
+                for items in units[u].items
+            ]
             for u in remaining
         }
         gone = [u for u in remaining if all(s == signatures[u][0] for s in signatures[u])]
@@ -382,18 +388,19 @@ def _base_state(
 def _signature(
     items: tuple[int, ...],
     adjacency: Adjacency,
-    labels: np.ndarray,
+    labels: Sequence[int],
     und_pairs: set[tuple[int, int]],
-    active: np.ndarray,
+    active: Sequence[bool],
 ) -> Signature:
-    """The changes of space passability caused by adding ``items`` to the base model."""
+    """The changes of space passability caused by adding ``items`` to the base model
+    (``labels``, ``active``: the component label and whether active, of each item)."""
     joined: set[int] = set()
     undecided: set[int] = set()
     for it in items:
         for other, kind in adjacency.get(it, {}).items():
             if not active[other]:
                 continue
-            lab = int(labels[other])
+            lab = labels[other]
             if kind == _IMP:
                 joined.add(lab)
             else:
@@ -424,7 +431,7 @@ def _signature(
     return frozenset(changes)
 
 
-def _new_obstacles(items: tuple[int, ...], adjacency: Adjacency, active: np.ndarray) -> int:
+def _new_obstacles(items: tuple[int, ...], adjacency: Adjacency, active: Sequence[bool]) -> int:
     """How many new obstacles ``items`` make: the components (impassable relations among them)
     none of whose items is impassable to an active item."""
     if not items:
@@ -442,6 +449,8 @@ def _new_obstacles(items: tuple[int, ...], adjacency: Adjacency, active: np.ndar
             elif other in pos:
                 ii.append(pos[it])
                 jj.append(pos[other])
+    if not ii:  # no links among them: each item is a component of its own
+        return len(items) - len(set(anchored))
     labels = components(len(items), np.asarray(ii, np.int64), np.asarray(jj, np.int64))
     return len(set(labels.tolist()) - set(labels[anchored].tolist()))
 

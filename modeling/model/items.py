@@ -128,10 +128,7 @@ def length_3d(items: Items) -> FloatArray:
 
 def item_relations(items: Items, robot_width_m: float, eps: float) -> SegmentRelations:
     """Relations among all items, never between candidates of one ambiguous segment."""
-    rel = segment_relations(items.ends, items.covs, robot_width_m, eps)
-    item_amb = items.ambiguous
-    same_amb = (item_amb[rel.i] >= 0) & (item_amb[rel.i] == item_amb[rel.j])
-    return rel.subset(~same_amb) if np.any(same_amb) else rel
+    return segment_relations(items.ends, items.covs, robot_width_m, eps, group=items.ambiguous)
 
 
 def isolated_short_segments(

@@ -5,9 +5,13 @@ A situation's obstacles are the connected components of the impassable relations
 active items (section 4.1), numbered in the order of their smallest item. Between two obstacles
 of a situation, its undecided relations make one critical region and its short passable ones one
 passage: the relation rows are grouped by (situation, obstacle pair), each group sorted by
-passability or distance. :func:`partition_arrays` does it for all the situations of a model in
-one compiled pass (:mod:`modeling.model._kernels.partition`); :func:`partition_arrays_reference` is
-its readable NumPy reference (equal results; ``tests/modeling/model/test_compiled_model.py``).
+passability or distance. :func:`situation_partitions` does it for all the situations of a model
+in one compiled pass (:mod:`modeling.model._kernels.partition`), each distinct obstacle once (the
+situations share most: they differ by a few candidates), and what every situation shares (the
+components of the items active in all of them) once;
+:func:`situation_partitions_reference` is its readable NumPy reference, each situation on its own
+(:func:`partition_arrays_reference`), then the obstacles identified by their items (equal
+results; ``tests/modeling/model/test_compiled_model.py``).
 """
 
 from __future__ import annotations
@@ -15,14 +19,27 @@ from __future__ import annotations
 import numpy as np
 
 from modeling.model._kernels import partition as _kernel
-from modeling.model._kernels.partition import Groups, PartitionArrays
+from modeling.model._kernels.partition import (
+    FlipGroups,
+    Groups,
+    PartitionArrays,
+    SituationPartitions,
+)
 from modeling.model.obstacles import components
 from modeling.types import FloatArray
 
-__all__ = ["Groups", "PartitionArrays", "partition_arrays", "partition_arrays_reference"]
+__all__ = [
+    "FlipGroups",
+    "Groups",
+    "PartitionArrays",
+    "SituationPartitions",
+    "partition_arrays_reference",
+    "situation_partitions",
+    "situation_partitions_reference",
+]
 
 
-def partition_arrays(
+def situation_partitions(
     act: np.ndarray,
     ri: np.ndarray,
     rj: np.ndarray,
@@ -31,9 +48,10 @@ def partition_arrays(
     is_short_pas: np.ndarray,
     p_passable: FloatArray,
     distance_m: FloatArray,
-) -> PartitionArrays:
-    """The obstacles of the situations whose active items are ``act`` (S, N) bool, and their
-    relation groups (:class:`PartitionArrays`).
+) -> SituationPartitions:
+    """The obstacles of the situations whose active items are ``act`` (S, N) bool, each
+    distinct one once, and their relation groups (:class:`SituationPartitions`), by the compiled
+    :func:`modeling.model._kernels.partition.situation_partitions`.
 
     Args:
         act: (S, N) bool, the active items of each situation.
@@ -43,10 +61,79 @@ def partition_arrays(
         p_passable: (m,) the order within an undecided group (least passable first).
         distance_m: (m,) the order within a passage group (narrowest first).
     """
-    arrays: PartitionArrays = _kernel.partition_arrays(
-        np.ascontiguousarray(act), ri, rj, is_imp, is_und, is_short_pas, p_passable, distance_m
+    arrays: SituationPartitions = _kernel.situation_partitions(
+        np.ascontiguousarray(act),
+        ri,
+        rj,
+        is_imp,
+        _sorted_rows(is_und, p_passable),
+        _sorted_rows(is_short_pas, distance_m),
     )
     return arrays
+
+
+def _sorted_rows(mask: np.ndarray, within: FloatArray) -> np.ndarray:
+    """(k,) int64 the rows of ``mask`` sorted by ``within`` (ascending; ties in row order)."""
+    rows = np.flatnonzero(mask)
+    out: np.ndarray = rows[np.argsort(within[rows], kind="stable")]
+    return out
+
+
+def situation_partitions_reference(
+    act: np.ndarray,
+    ri: np.ndarray,
+    rj: np.ndarray,
+    is_imp: np.ndarray,
+    is_und: np.ndarray,
+    is_short_pas: np.ndarray,
+    p_passable: FloatArray,
+    distance_m: FloatArray,
+) -> SituationPartitions:
+    """The readable reference of :func:`situation_partitions` (equal results): every
+    situation's partition by :func:`partition_arrays_reference`, then each obstacle identified
+    by its items (their bytes), the first situation that has it giving its links."""
+    arrays = partition_arrays_reference(
+        act, ri, rj, is_imp, is_und, is_short_pas, p_passable, distance_m
+    )
+    distinct: dict[bytes, int] = {}
+    obstacle: list[int] = []
+    items: list[np.ndarray] = []
+    links: list[np.ndarray] = []
+    item_at, imp_at = arrays.item_bounds, arrays.imp_bounds
+    for s in range(act.shape[0]):
+        its = arrays.items[item_at[s] : item_at[s + 1]]
+        counts = arrays.counts[arrays.first_obst[s] : arrays.first_obst[s + 1]]
+        rows = arrays.imp_rows[imp_at[s] : imp_at[s + 1]]
+        link_obst = arrays.link_obst[imp_at[s] : imp_at[s + 1]]
+        starts = np.concatenate(([0], np.cumsum(counts)))
+        for c in range(counts.shape[0]):
+            members = its[starts[c] : starts[c + 1]]
+            key = members.tobytes()
+            if key not in distinct:
+                distinct[key] = len(distinct)
+                items.append(members)
+                links.append(rows[link_obst == c])
+            obstacle.append(distinct[key])
+    empty = np.zeros(0, dtype=np.int64)
+    return SituationPartitions(
+        obstacle=np.array(obstacle, dtype=np.int64),
+        first_obst=arrays.first_obst,
+        items=np.concatenate(items) if items else empty,
+        counts=np.array([a.shape[0] for a in items], dtype=np.int64),
+        links=np.concatenate(links) if links else empty,
+        link_counts=np.array([a.shape[0] for a in links], dtype=np.int64),
+        und=_with_flip(arrays.und, arrays.oi, arrays.oj),
+        und_bounds=arrays.und_bounds,
+        pas=_with_flip(arrays.pas, arrays.oi, arrays.oj),
+    )
+
+
+def _with_flip(groups: Groups, oi: np.ndarray, oj: np.ndarray) -> FlipGroups:
+    """``groups`` and whether each one's first row has its first item on the higher obstacle
+    (``oi``, ``oj``: (S, m) the obstacle of each relation's items in each situation)."""
+    rows, starts, s = groups[0], groups[1], groups[2]
+    first = rows[starts]
+    return (*groups, oi[s, first] > oj[s, first])
 
 
 def partition_arrays_reference(
@@ -59,9 +146,9 @@ def partition_arrays_reference(
     p_passable: np.ndarray,
     distance_m: np.ndarray,
 ) -> PartitionArrays:
-    """The readable reference of the compiled
-    :func:`modeling.model._kernels.partition.partition_arrays`, in NumPy (equal results): the
-    obstacles of the situations whose active items are ``act`` (S, N) and their relation groups.
+    """Every situation's partition, in NumPy (:class:`PartitionArrays`): the obstacles of the
+    situations whose active items are ``act`` (S, N) and their relation groups; the readable
+    core of :func:`situation_partitions_reference`.
 
     All situations are labelled by one call: situation ``k``'s item ``x`` is node ``k N + x`` of
     one graph, so no component spans two situations and its smallest node is ``k N`` plus the

@@ -193,6 +193,7 @@ def segment_relations(
     eps: float,
     *,
     pairs: np.ndarray | None = None,
+    group: np.ndarray | None = None,
 ) -> SegmentRelations:
     """Relations of nearby segment pairs: closest points, their uncertainty, ``p_passable``, kind.
 
@@ -202,6 +203,8 @@ def segment_relations(
         width_m: Robot width (diameter), metres.
         eps: Classification tolerance (see :func:`~modeling.model.gaps.classify_gap`).
         pairs: (p, 2) pairs to examine; default: :func:`candidate_pairs`.
+        group: (n,) int, a group of each segment (-1: none): two segments of one group are not
+            related (no row). Default: no groups.
 
     Returns:
         The :class:`SegmentRelations`, rows sorted by ``(i, j)``.
@@ -216,6 +219,11 @@ def segment_relations(
         Ei, Ej = endpoints[i], endpoints[j]
         s, t = closest_points(Ei[:, 0], Ei[:, 1], Ej[:, 0], Ej[:, 1])
         params = PairParams(i, j, s, t)
+    if group is not None:
+        same = (group[params.i] >= 0) & (group[params.i] == group[params.j])
+        if same.any():
+            keep = ~same
+            params = PairParams(params.i[keep], params.j[keep], params.s[keep], params.t[keep])
     # Closest points, covariances, distance and p_passable of each pair: a compiled loop (its
     # reference: relation_rows_reference).
     rows = _gap_kernel.relation_rows(

@@ -7,7 +7,7 @@ segments may be no obstacle (``AmbiguousSegment.p_none > 0``) has the choice "no
 probability ``p_none`` and no item; ``Situation.choice`` maps its members to ``-1`` then.
 
 * *Partition*: its obstacles are the connected components of impassable relations among its
-  items, numbered in the order of their smallest item (:func:`_partitions`).
+  items, numbered in the order of their smallest item (:meth:`_Context.partitions`).
 * *Critical regions*: between two obstacles, all undecided relations form one
   :class:`~modeling.model.records.CriticalRegion` (convex hull of the relation endpoints) whose
   width distribution is that of its narrowest (least passable) relation. Undecided relations inside
@@ -20,12 +20,14 @@ probability ``p_none`` and no item; ``Situation.choice`` maps its members to ``-
   best-first (:func:`k_best`): exact probabilities, ``O(k log k)``, no enumeration of the full
   product.
 
-Situations share most obstacles and region polygons (they differ by a few candidates): a
-:class:`_Context` builds each once, identified by its items or relation rows, and caches the
-width moments per relation row. The partitions of all situations are made in one pass over
-(situation, relation) arrays, and their regions and passages in one more: a fused model holds
-tens of situations, and per-situation NumPy calls on a few hundred relations cost more than
-the work they do (a property test holds the situations made together equal to each made alone).
+Situations share most obstacles and region polygons (they differ by a few candidates): the
+partitions of all situations are made in one compiled pass over (situation, relation) arrays
+(:func:`modeling.model.partitions.situation_partitions`) that lists each distinct obstacle once
+(and joins the items active in every situation once), so each is built once; region polygons
+are shared by their relation rows, and width moments are cached per relation row. Their regions
+and passages are made in one more pass: a fused model holds tens of situations, and
+per-situation NumPy calls on a few hundred relations cost more than the work they do (a property
+test holds the situations made together equal to each made alone).
 
 Frames: world, metres; probabilities in [0, 1].
 """
@@ -34,6 +36,7 @@ from __future__ import annotations
 
 import heapq
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -41,7 +44,7 @@ from modeling.model.ambiguity import Elimination, Unit
 from modeling.model.gaps import Relation, gap_width_moments
 from modeling.model.items import Items
 from modeling.model.obstacles import make_obstacles
-from modeling.model.partitions import partition_arrays
+from modeling.model.partitions import FlipGroups, SituationPartitions, situation_partitions
 from modeling.model.records import CriticalRegion, Obstacle, Passage, Situation
 from modeling.model.relations import SegmentRelations
 from modeling.types import FloatArray
@@ -86,87 +89,26 @@ def enumerate_situations(
         [(unit.items[k], unit.choices[k]) for k in o.tolist()]
         for unit, o in zip(remaining, order_u, strict=True)
     ]
-    actives: list[np.ndarray] = []
+    best = k_best(sorted_p, max_situations)
+    actives = np.repeat(elimination.active[None], len(best), axis=0)  # (S, N)
+    at_sit: list[int] = []  # the situation and item of each chosen candidate
+    at_item: list[int] = []
     probs: list[float] = []
     choices: list[dict[int, int]] = []
-    for prob, state in k_best(sorted_p, max_situations):
-        active = elimination.active.copy()
+    for k, (prob, state) in enumerate(best):
         choice: dict[int, int] = {}
-        chosen: list[int] = []
         for pos, rank in enumerate(state):
             unit_items, cands = ranked[pos][rank]
-            chosen.extend(unit_items)
+            at_item.extend(unit_items)
+            at_sit.extend([k] * len(unit_items))
             choice.update(cands)
-        active[chosen] = True
-        actives.append(active)
         probs.append(prob)
         choices.append(choice)
+    actives[at_sit, at_item] = True
     situations = _situations(ctx, actives, probs, choices, robot_width_m)
     situations.sort(key=lambda s: -s.probability)
     total = math.fsum(s.probability for s in situations)
     return situations, max(0.0, 1.0 - total)
-
-
-class _Partition:
-    """What one situation's active items make: obstacles, and relation rows between them.
-
-    Computed for every situation first (:func:`_partitions`), so that the obstacles and region
-    polygons that no earlier situation built are built for all situations in one batch
-    (:meth:`_Context.prepare`) before the situations are assembled (:func:`_situations`).
-
-    Attributes:
-        n_obst: Number of obstacles.
-        items: (k,) active items sorted by (obstacle, item index).
-        counts: (n_obst,) number of items of each obstacle.
-        bounds: Where each obstacle's items start in ``items`` (n_obst + 1 entries).
-        imp_rows: (q,) rows of the impassable relations inside obstacles (ascending).
-        link_obst: (q,) obstacle of each of those rows.
-        region_rows: The undecided rows between each pair of its obstacles that have any, the
-            narrowest (least passable) first: one critical region each.
-        obstacles: Its :class:`Obstacle` records, and
-        region_polygons: the polygon of each group of ``und``, both set by
-            :meth:`_Context.prepare`.
-    """
-
-    __slots__ = (
-        "bounds",
-        "counts",
-        "imp_rows",
-        "items",
-        "link_obst",
-        "n_obst",
-        "obstacles",
-        "region_polygons",
-        "region_rows",
-    )
-
-    def __init__(
-        self,
-        *,
-        items: np.ndarray,
-        counts: np.ndarray,
-        imp_rows: np.ndarray,
-        link_obst: np.ndarray,
-        region_rows: list[np.ndarray],
-    ) -> None:
-        self.n_obst = int(counts.shape[0])
-        self.items = items
-        self.counts = counts
-        self.bounds = [0, *np.cumsum(counts).tolist()]
-        self.imp_rows = imp_rows
-        self.link_obst = link_obst
-        self.region_rows = region_rows
-        self.obstacles: list[Obstacle] = []
-        self.region_polygons: list[FloatArray] = []
-
-    def keys(self) -> list[bytes]:
-        """Cache key of each obstacle (its items' bytes)."""
-        b = self.bounds
-        return [self.items[b[c] : b[c + 1]].tobytes() for c in range(self.n_obst)]
-
-    def region_keys(self) -> list[bytes]:
-        """Cache key of each group of ``region_rows`` (its rows' bytes)."""
-        return [r.tobytes() for r in self.region_rows]
 
 
 class _Context:
@@ -174,7 +116,7 @@ class _Context:
 
     Obstacles are identified by their member items and region polygons by their relation rows,
     so situations that share them (most do: they differ by a few ambiguous candidates) build
-    them once (:meth:`prepare`); width moments are cached per relation row.
+    them once; width moments are cached per relation row.
     """
 
     def __init__(
@@ -197,84 +139,40 @@ class _Context:
         # Passable relations short enough to be a passage (the same in every situation).
         self.is_short_pas = (rel.kind == _PAS) & (rel.distance_m <= passage_max_m)
 
-    def prepare(self, parts: list[_Partition]) -> None:
-        """Build, in one batch, the obstacles and region polygons of ``parts`` (each once, from
-        the first situation that has it; shared by content, their items' and relation rows'
-        bytes, between situations), and set each part's ``obstacles`` and ``region_polygons``."""
-        if len(parts) == 1:  # one situation: every obstacle and region is new, none shared
-            part = parts[0]
-            ob = np.repeat(np.arange(part.n_obst), part.counts)
-            part.obstacles, part.region_polygons = self._build(
-                part.items, ob, part.imp_rows, part.link_obst, part.region_rows
-            )
-            return
-        new_keys: list[bytes] = []  # the new obstacles, in the order of their new id
-        seen: set[bytes] = set()
-        it_parts: list[np.ndarray] = []  # their items, grouped by new id
-        ob_parts: list[np.ndarray] = []  # the new id of each of those items
-        link_parts: list[np.ndarray] = []  # their impassable links (relation rows)
-        lob_parts: list[np.ndarray] = []  # the new id of each of those links
-        new_regions: dict[bytes, np.ndarray] = {}
-        keys: list[list[bytes]] = []
-        region_keys: list[list[bytes]] = []
-        for part in parts:
-            keys.append(part.keys())
-            region_keys.append(part.region_keys())
-            todo = []
-            for c, key in enumerate(keys[-1]):
-                if key not in seen:
-                    seen.add(key)
-                    todo.append(c)
-            for key, rows in zip(region_keys[-1], part.region_rows, strict=True):
-                if key not in new_regions:
-                    new_regions[key] = rows
-            if todo:
-                # Vectorised selection of the new obstacles' items and links (new ids follow
-                # the obstacle order, so items stay grouped by new id).
-                new_id = np.full(part.n_obst, -1, dtype=np.int64)
-                new_id[todo] = np.arange(len(new_keys), len(new_keys) + len(todo))
-                new_keys.extend(keys[-1][c] for c in todo)
-                ob = new_id[np.repeat(np.arange(part.n_obst), part.counts)]
-                keep = ob >= 0
-                it_parts.append(part.items[keep])
-                ob_parts.append(ob[keep])
-                lob = new_id[part.link_obst]
-                lk = lob >= 0
-                link_parts.append(part.imp_rows[lk])
-                lob_parts.append(lob[lk])
-        t = len(new_keys)
-        empty = np.zeros(0, dtype=np.int64)
-        it = np.concatenate(it_parts) if t else empty
-        ob = np.concatenate(ob_parts) if t else empty
-        link_rows = np.concatenate(link_parts) if t else empty
-        lob = np.concatenate(lob_parts) if t else empty
-        obstacles, region_polygons = self._build(it, ob, link_rows, lob, list(new_regions.values()))
-        by_key = dict(zip(new_keys, obstacles, strict=True))
-        region_by_key = dict(zip(new_regions, region_polygons, strict=True))
-        for part, part_keys, part_region_keys in zip(parts, keys, region_keys, strict=True):
-            part.obstacles = [by_key[k] for k in part_keys]
-            part.region_polygons = [region_by_key[k] for k in part_region_keys]
+    def partitions(self, actives: np.ndarray | Sequence[np.ndarray]) -> SituationPartitions:
+        """Obstacles of each situation whose items are ``actives``, each distinct one once, and
+        its relations between them: all situations in one compiled pass
+        (:func:`modeling.model.partitions.situation_partitions`)."""
+        rel = self.rel
+        act = np.asarray(actives, dtype=bool).reshape(len(actives), self.ends.shape[0])
+        return situation_partitions(
+            act,
+            self.ri,
+            self.rj,
+            self.is_imp,
+            self.is_und,
+            self.is_short_pas,
+            rel.p_passable,
+            rel.distance_m,
+        )
 
-    def _build(
-        self,
-        items: np.ndarray,
-        ob: np.ndarray,
-        link_rows: np.ndarray,
-        lob: np.ndarray,
-        region_rows: list[np.ndarray],
+    def build(
+        self, parts: SituationPartitions, region_rows: list[np.ndarray]
     ) -> tuple[list[Obstacle], list[FloatArray]]:
-        """:func:`make_obstacles` of the obstacles whose ``items`` (grouped by obstacle) are of
-        obstacles ``ob`` (0 .. t - 1, ascending) and whose links ``link_rows`` are of ``lob``."""
-        t = int(ob[-1]) + 1 if ob.shape[0] else 0
+        """:func:`make_obstacles` of the distinct obstacles of ``parts`` and the polygons of the
+        regions of ``region_rows``, in one batch."""
+        u = parts.counts.shape[0]
+        ob = np.repeat(np.arange(u), parts.counts)
+        lob = np.repeat(np.arange(u), parts.link_counts)
         return make_obstacles(
             ends=self.ends,
             links=self.links,
             item_segment=self.item_segment,
             item_candidate=self.item_candidate,
-            items=items,
-            counts=np.bincount(ob, minlength=t),
-            link_rows=link_rows,
-            link_counts=np.bincount(lob, minlength=t),
+            items=parts.items,
+            counts=parts.counts,
+            link_rows=parts.links,
+            link_counts=parts.link_counts,
             link_order=np.argsort(np.concatenate((ob, lob)), kind="stable"),
             outline_buffer_m=self.outline_buffer_m,
             region_rows=region_rows,
@@ -293,88 +191,51 @@ class _Context:
         return self.width_mean[rows].tolist(), self.width_std[rows].tolist()
 
 
-def _group_rows(
-    groups: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-) -> list[np.ndarray]:
+def _group_rows(groups: FlipGroups) -> list[np.ndarray]:
     """The rows of each group of ``groups`` (views of its sorted rows)."""
     rows, starts = groups[0], groups[1]
     return [rows[s0:s1] for s0, s1 in zip(starts.tolist(), _stops(groups), strict=True)]
 
 
-def _stops(groups: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> list[int]:
+def _stops(groups: FlipGroups) -> list[int]:
     """Where each group of ``groups`` ends in its sorted rows."""
     rows, starts = groups[0], groups[1]
     return [*starts[1:].tolist(), rows.shape[0]] if starts.shape[0] else []
 
 
-def _partitions(ctx: _Context, actives: list[np.ndarray]) -> tuple[list[_Partition], _Groups]:
-    """Obstacles of each situation whose items are ``actives``, and its relations between them:
-    all situations in one compiled pass (:func:`modeling.model.partitions.partition_arrays`)."""
-    rel = ctx.rel
-    act = actives[0][None] if len(actives) == 1 else np.stack(actives)  # (S, N)
-    arrays = partition_arrays(
-        act,
-        ctx.ri,
-        ctx.rj,
-        ctx.is_imp,
-        ctx.is_und,
-        ctx.is_short_pas,
-        rel.p_passable,
-        rel.distance_m,
-    )
-    items, counts, first_obst = arrays.items, arrays.counts, arrays.first_obst.tolist()
-    imp_rows, link_obst = arrays.imp_rows, arrays.link_obst
-    region_rows = _group_rows(arrays.und)
-    at_item, at_imp = arrays.item_bounds.tolist(), arrays.imp_bounds.tolist()
-    at_group = arrays.und_bounds.tolist()
-    parts = [
-        _Partition(
-            items=items[at_item[k] : at_item[k + 1]],
-            counts=counts[first_obst[k] : first_obst[k + 1]],
-            imp_rows=imp_rows[at_imp[k] : at_imp[k + 1]],
-            link_obst=link_obst[at_imp[k] : at_imp[k + 1]],
-            region_rows=region_rows[at_group[k] : at_group[k + 1]],
-        )
-        for k in range(act.shape[0])
-    ]
-    return parts, _Groups(oi=arrays.oi, oj=arrays.oj, und=arrays.und, pas=arrays.pas)
+def _distinct(row_groups: list[np.ndarray]) -> tuple[list[np.ndarray], list[int]]:
+    """The distinct groups of ``row_groups`` (by content, in the order of first occurrence) and
+    the index of each group among them."""
+    index: dict[bytes, int] = {}
+    distinct: list[np.ndarray] = []
+    which: list[int] = []
+    for rows in row_groups:
+        key = rows.tobytes()
+        k = index.get(key)
+        if k is None:
+            k = index[key] = len(distinct)
+            distinct.append(rows)
+        which.append(k)
+    return distinct, which
 
 
-class _Groups:
-    """The relation groups of all situations (the undecided and the short passable rows'
-    groups of :func:`~modeling.model.partitions.partition_arrays`), and each relation's obstacles in
-    each situation."""
-
-    __slots__ = ("oi", "oj", "pas", "und")
-
-    def __init__(
-        self,
-        *,
-        oi: np.ndarray,
-        oj: np.ndarray,
-        und: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-        pas: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-    ) -> None:
-        self.oi, self.oj, self.und, self.pas = oi, oj, und, pas
-
-
-def _narrowest_points(
-    ctx: _Context, groups: _Groups, rows: np.ndarray, s: np.ndarray
-) -> list[FloatArray]:
-    """(2, 2) closest points of each of relation ``rows`` (of situations ``s``), the point on the
-    lower-index obstacle first (read-only views of one array)."""
+def _narrowest_points(ctx: _Context, rows: np.ndarray, flip: np.ndarray) -> list[FloatArray]:
+    """(2, 2) closest points of each of relation ``rows``, the point on the lower-index obstacle
+    first (``flip``: the relation's first item is on the higher one; read-only views of one
+    array)."""
     out: FloatArray = ctx.links[rows]
-    flip = groups.oi[s, rows] > groups.oj[s, rows]
     out[flip] = out[flip, ::-1]
     out.setflags(write=False)
     return list(out)
 
 
-def _regions(ctx: _Context, parts: list[_Partition], groups: _Groups) -> list[list[CriticalRegion]]:
+def _regions(
+    ctx: _Context, n_sit: int, groups: FlipGroups, polygons: list[FloatArray]
+) -> list[list[CriticalRegion]]:
     """Each situation's critical regions: one per obstacle pair with undecided relations
-    between them (region polygons already built by :meth:`_Context.prepare`)."""
-    rows, starts, s, lo, hi = groups.und
-    out: list[list[CriticalRegion]] = [[] for _ in parts]
+    between them (``groups``, each with its polygon in ``polygons``)."""
+    rows, starts, s, lo, hi, flip = groups
+    out: list[list[CriticalRegion]] = [[] for _ in range(n_sit)]
     if rows.size == 0:
         return out
     rel = ctx.rel
@@ -383,7 +244,6 @@ def _regions(ctx: _Context, parts: list[_Partition], groups: _Groups) -> list[li
     rel_lines = ctx.links[rows]
     rel_lines.setflags(write=False)
     rows_list = rows.tolist()
-    polygons = [poly for part in parts for poly in part.region_polygons]
     for k, a_, b_, poly, wm, ws, p_, nw, s0, s1 in zip(
         s.tolist(),
         lo.tolist(),
@@ -392,9 +252,9 @@ def _regions(ctx: _Context, parts: list[_Partition], groups: _Groups) -> list[li
         w_mean,
         w_std,
         rel.p_passable[narrowest].tolist(),
-        _narrowest_points(ctx, groups, narrowest, s),
+        _narrowest_points(ctx, narrowest, flip),
         starts.tolist(),
-        _stops(groups.und),
+        _stops(groups),
         strict=True,
     ):
         out[k].append(
@@ -412,60 +272,72 @@ def _regions(ctx: _Context, parts: list[_Partition], groups: _Groups) -> list[li
     return out
 
 
-def _passages(ctx: _Context, n_sit: int, groups: _Groups) -> list[list[Passage]]:
+def _passages(ctx: _Context, n_sit: int, groups: FlipGroups) -> list[list[Passage]]:
     """Each situation's passages: the narrowest per obstacle pair among its short passable
     relations."""
-    rows, starts, s, lo, hi = groups.pas
+    rows, starts, s, lo, hi, flip = groups
     out: list[list[Passage]] = [[] for _ in range(n_sit)]
     if rows.size == 0:
         return out
-    rel = ctx.rel
+    # Situations share most passages (the same obstacle pair and row): each is made once.
     first = rows[starts]
-    for k, a_, b_, nw, d_, p_, r0 in zip(
-        s.tolist(),
-        lo.tolist(),
-        hi.tolist(),
-        _narrowest_points(ctx, groups, first, s),
-        rel.distance_m[first].tolist(),
-        rel.p_passable[first].tolist(),
-        first.tolist(),
-        strict=True,
-    ):
-        out[k].append(
-            Passage(obstacles=(a_, b_), narrowest=nw, width_mean_m=d_, p_passable=p_, relation=r0)
+    keys = list(zip(lo.tolist(), hi.tolist(), first.tolist(), flip.tolist(), strict=True))
+    index: dict[tuple[int, int, int, bool], int] = {}
+    for key in keys:
+        index.setdefault(key, len(index))
+    distinct = list(index)
+    rel = ctx.rel
+    at = np.array([key[2] for key in distinct], dtype=np.int64)
+    made = [
+        Passage(obstacles=(a_, b_), narrowest=nw, width_mean_m=d_, p_passable=p_, relation=r0)
+        for (a_, b_, r0, _), nw, d_, p_ in zip(
+            distinct,
+            _narrowest_points(ctx, at, np.array([key[3] for key in distinct], dtype=bool)),
+            rel.distance_m[at].tolist(),
+            rel.p_passable[at].tolist(),
+            strict=True,
         )
+    ]
+    for k, key in zip(s.tolist(), keys, strict=True):
+        out[k].append(made[index[key]])
     return out
 
 
 def _situations(
     ctx: _Context,
-    actives: list[np.ndarray],
+    actives: np.ndarray | Sequence[np.ndarray],
     probabilities: list[float],
     choices: list[dict[int, int]],
     robot_width_m: float,
 ) -> list[Situation]:
-    """Obstacles, critical regions and passages of each situation whose items are ``actives``.
+    """Obstacles, critical regions and passages of each situation whose items are ``actives``
+    ((S, N) bool, or S rows).
 
-    Three passes: the partitions of all situations, then one batch for every obstacle and region
-    polygon not cached yet, then the situations' regions and passages, all situations at once.
+    Three passes: the partitions of all situations (each distinct obstacle once), then one batch
+    for the distinct obstacles and region polygons, then the situations' regions and passages,
+    all situations at once.
     """
-    if not actives:
+    n_sit = len(actives)
+    if n_sit == 0:
         return []
-    parts, groups = _partitions(ctx, actives)
-    ctx.prepare(parts)
-    regions = _regions(ctx, parts, groups)
-    passages = _passages(ctx, len(parts), groups)
+    parts = ctx.partitions(actives)
+    region_rows, which = _distinct(_group_rows(parts.und))
+    obstacles, region_polygons = ctx.build(parts, region_rows)
+    regions = _regions(ctx, n_sit, parts.und, [region_polygons[k] for k in which])
+    passages = _passages(ctx, n_sit, parts.pas)
+    of_situations = [obstacles[u] for u in parts.obstacle.tolist()]
+    first = parts.first_obst.tolist()
     return [
         Situation(
             probability=float(probability),
-            obstacles=tuple(part.obstacles),
+            obstacles=tuple(of_situations[first[k] : first[k + 1]]),
             critical_regions=tuple(r),
             choice=dict(sorted(choice.items())),
             passages=tuple(ps),
             robot_width_m=robot_width_m,
         )
-        for part, probability, choice, r, ps in zip(
-            parts, probabilities, choices, regions, passages, strict=True
+        for k, (probability, choice, r, ps) in enumerate(
+            zip(probabilities, choices, regions, passages, strict=True)
         )
     ]
 

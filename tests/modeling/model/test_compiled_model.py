@@ -3,11 +3,16 @@ modeling.model.partitions and modeling.model.ambiguity, sections 4.1 and 4.2).""
 
 from __future__ import annotations
 
+import itertools
+import pathlib
+
 import numpy as np
 import pytest
 
+import modeling.model.situations as situations_module
 from modeling.model._kernels.hull import finish_hulls
 from modeling.model.ambiguity import units_moving_together, units_moving_together_reference
+from modeling.model.build import EnvironmentModel, build_model
 from modeling.model.items import items_of
 from modeling.model.obstacles import (
     components,
@@ -15,8 +20,8 @@ from modeling.model.obstacles import (
     finish_hulls_reference,
     geos_hull_sets,
 )
-from modeling.model.partitions import partition_arrays, partition_arrays_reference
-from modeling.observation import AmbiguousSegment, FloorObservation
+from modeling.model.partitions import situation_partitions, situation_partitions_reference
+from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
 from tests.modeling.model.test_figures import seg
 
 
@@ -99,16 +104,21 @@ def test_partition_kernel_equals_its_numpy_reference(seed: int) -> None:
         (int(rng.integers(1, 6)), int(rng.integers(2, 40)), int(rng.integers(0, 120)))
         for _ in range(12)
     ]
-    multi = 0
+    multi = shared = 0
     for n_sit, n, m in cases:
         args = _situation_inputs(rng, n_sit, n, m)
-        got, want = partition_arrays(*args), partition_arrays_reference(*args)
+        if n_sit > 1 and rng.random() < 0.5:  # situations that share most items, as models do
+            act = args[0]
+            act[1:] = act[0] | (rng.random(act[1:].shape) < 0.1)
+        got, want = situation_partitions(*args), situation_partitions_reference(*args)
         for name, g, w in zip(got._fields, got, want, strict=True):
             for a, b in zip(g, w, strict=True) if isinstance(g, tuple) else [(g, w)]:
-                assert np.asarray(a).dtype == np.asarray(b).dtype == np.int64, name
+                assert np.asarray(a).dtype == np.asarray(b).dtype, name
                 np.testing.assert_array_equal(a, b, err_msg=name)
         multi += int((np.diff(got.first_obst) > 1).any() and got.und[0].size > 1)
+        shared += int(got.counts.shape[0] < got.obstacle.shape[0])
     assert multi >= 3  # several obstacles and undecided groups to sort, not only empty cases
+    assert shared >= 1  # obstacles found again in later situations
 
 
 def _shelf_observation(rng: np.random.Generator) -> FloorObservation:
@@ -164,3 +174,74 @@ def test_moving_together_kernel_equals_its_numpy_reference(seed: int) -> None:
             assert g.probabilities.tobytes() == w.probabilities.tobytes()
         joined += sum(len(u.members) > 1 for u in got)
     assert joined >= 3  # units of several members, not only singletons
+
+
+_DRIVE = pathlib.Path(__file__).parent / "data" / "memory_drive.npz"
+"""Three fused observations recorded on ``scripts/bench_env.py``'s drive (the default scene,
+``memory=True``): a median one (69 segments, 10 ambiguities), the largest (115 segments, 37
+ambiguities, 4,786 relations, 64 situations) and the most ambiguous (38 ambiguities)."""
+
+
+def _recorded_observations() -> list[FloorObservation]:
+    data = np.load(_DRIVE)
+    out = []
+    for k in range(3):
+
+        def segments(prefix: str, k: int = k) -> list[FloorSegment]:
+            ends, cov, height = (data[f"v{k}_{prefix}{f}"] for f in ("ends", "cov", "height"))
+            return [
+                FloorSegment(endpoints=e, cov=c, height_m=h)
+                for e, c, h in zip(ends, cov, height, strict=True)
+            ]
+
+        cands, probs = segments("cand_"), data[f"v{k}_cand_prob"].tolist()
+        at = np.concatenate(([0], np.cumsum(data[f"v{k}_cand_count"]))).tolist()
+        view = data[f"v{k}_view"]
+        out.append(
+            FloorObservation(
+                segments=tuple(segments("")),
+                ambiguous=tuple(
+                    AmbiguousSegment(candidates=tuple(cands[a:b]), probabilities=tuple(probs[a:b]))
+                    for a, b in itertools.pairwise(at)
+                ),
+                viewpoint=view[:3],
+                fov_rad=float(view[3]),
+                max_range_m=float(view[4]),
+            )
+        )
+    return out
+
+
+def _model_record(model: EnvironmentModel) -> list[object]:
+    """Every field of every situation's obstacles, regions and passages, arrays as bytes."""
+
+    def fields(record: object) -> tuple[object, ...]:
+        values = (getattr(record, f) for f in record.__dataclass_fields__)  # type: ignore[attr-defined]
+        return tuple(v.tobytes() if isinstance(v, np.ndarray) else v for v in values)
+
+    return [
+        [
+            s.probability,
+            s.choice,
+            [fields(o) for o in s.obstacles],
+            [fields(r) for r in s.critical_regions],
+            [fields(p) for p in s.passages],
+        ]
+        for s in model.situations
+    ] + [model.residual_probability, [r.tobytes() for r in model.occluded]]
+
+
+@pytest.mark.parametrize("case", range(9))
+def test_situations_from_the_compiled_partitions_equal_the_readable_ones(case: int) -> None:
+    # the recorded fused observations of an env drive, then shelves of every kind of ambiguity
+    if case < 3:
+        obs = _recorded_observations()[case]
+    else:
+        obs = _shelf_observation(np.random.default_rng(100 + case))
+    got = build_model(obs, 0.5)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(situations_module, "situation_partitions", situation_partitions_reference)
+        want = build_model(obs, 0.5)
+    assert _model_record(got) == _model_record(want)
+    if case == 1:
+        assert len(got.situations) == 64 and len(got.relations) > 4000

@@ -120,6 +120,18 @@ def test_given_pairs_in_either_order_give_the_same_rows() -> None:
     assert np.all(sub.kind == Relation.IMPASSABLE) and np.all(sub.i < sub.j)
 
 
+def test_grouped_segments_are_the_rows_of_other_groups_unchanged() -> None:
+    ends, cov = _layout(40, seed=5)
+    group = np.random.default_rng(5).integers(-1, 4, 40)
+    rel = segment_relations(ends, cov, W, EPS)
+    grouped = segment_relations(ends, cov, W, EPS, group=group)
+    same = (group[rel.i] >= 0) & (group[rel.i] == group[rel.j])
+    assert same.any() and not same.all()
+    want = rel.subset(~same)
+    for name in rel.__dataclass_fields__:
+        assert np.array_equal(getattr(grouped, name), getattr(want, name)), name
+
+
 def test_a_zero_width_robot_passes_everywhere() -> None:
     ends, cov = _layout(20, seed=4)
     rel = segment_relations(ends, cov, 0.0, EPS)
