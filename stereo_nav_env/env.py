@@ -244,7 +244,11 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self._fixed_scene: Scene | None = (
             None
             if self.config.is_generated
-            else load_scenario(self.config.scenario, robot_width_m=self.config.world.robot_width_m)
+            else load_scenario(
+                self.config.scenario,
+                robot_width_m=self.config.world.robot_width_m,
+                surface_detail=self.config.surface_detail,
+            )
         )
         self.scene: Scene | None = None
         self.world: World | None = None
@@ -397,7 +401,12 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
             scene = self._fixed_scene
         else:
             scene_seed = int(self.np_random.integers(2**31 - 1))
-            scene = load_scenario(cfg.scenario, scene_seed, robot_width_m=cfg.world.robot_width_m)
+            scene = load_scenario(
+                cfg.scenario,
+                scene_seed,
+                robot_width_m=cfg.world.robot_width_m,
+                surface_detail=cfg.surface_detail,
+            )
         self.scene = scene
         self.world = World(scene, cfg.world)
         if self._truth_scene is not scene:
@@ -500,7 +509,11 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self.config = dataclasses.replace(self.config, scenario=scenario)
         cfg = self.config
         width = cfg.world.robot_width_m
-        fixed = None if cfg.is_generated else load_scenario(cfg.scenario, robot_width_m=width)
+        fixed = (
+            None
+            if cfg.is_generated
+            else load_scenario(cfg.scenario, robot_width_m=width, surface_detail=cfg.surface_detail)
+        )
         self._fixed_scene = fixed
 
     def close(self) -> None:

@@ -73,6 +73,11 @@ from shapely.geometry import Point
 from modeling.validation import positive
 from stereo_nav_env.sim.scenes.generator import FAMILIES, STANDARD_FAMILIES, generate_scene
 from stereo_nav_env.sim.scenes.parts import build_parts, make_obstacle, oriented_rect
+from stereo_nav_env.sim.scenes.surface import (
+    add_surface_detail,
+    has_surface_detail,
+    plain_surfaces,
+)
 from stereo_nav_env.sim.scenes.types import (
     DEFAULT_COLOR,
     DEFAULT_HEIGHT_M,
@@ -396,7 +401,11 @@ def available_maps() -> tuple[str, ...]:
 
 
 def load_scenario(
-    scenario: str, seed: int = 0, *, robot_width_m: float = DEFAULT_ROBOT_WIDTH_M
+    scenario: str,
+    seed: int = 0,
+    *,
+    robot_width_m: float = DEFAULT_ROBOT_WIDTH_M,
+    surface_detail: bool = False,
 ) -> Scene:
     """A scene by name: a bundled map, a ``.json`` path, a family name, or ``"random"``.
 
@@ -404,22 +413,32 @@ def load_scenario(
         scenario: ``"default"`` or another bundled map name, a path ending in ``.json``, one of
             :data:`FAMILIES` (generated from ``seed``) or ``"random"`` (the family is drawn from
             ``seed`` as well, among :data:`STANDARD_FAMILIES`).
-        seed: Seed of generated scenes.
+        seed: Seed of generated scenes (and of their surface detail).
         robot_width_m: Robot width the generator guarantees a route for.
+        surface_detail: Whether the faces carry surface detail
+            (:mod:`~stereo_nav_env.sim.scenes.surface`): a generated scene gets the detail drawn
+            from ``seed``; a map keeps the detail it lists, and a map that lists none gets
+            detail drawn from its name. ``False``: plain faces (a map's listed detail is
+            dropped); the scene is then exactly the one loaded or generated.
     """
     if not isinstance(scenario, str) or not scenario:
         raise ValueError(f"scenario must be a non-empty string, got {scenario!r}")
-    if scenario.endswith(".json"):
-        return check_navigable(load_map(scenario), robot_width_m)
-    if scenario in available_maps():
-        return check_navigable(load_map(MAPS_DIR / f"{scenario}.json"), robot_width_m)
-    if scenario == "random":
-        family = STANDARD_FAMILIES[
-            int(np.random.default_rng(seed).integers(len(STANDARD_FAMILIES)))
-        ]
-        return generate_scene(seed, family=family, robot_width_m=robot_width_m)
-    if scenario in FAMILIES:
-        return generate_scene(seed, family=scenario, robot_width_m=robot_width_m)
+    if not isinstance(surface_detail, bool):
+        raise ValueError(f"surface_detail must be True or False, got {surface_detail!r}")
+    if scenario.endswith(".json") or scenario in available_maps():
+        path = scenario if scenario.endswith(".json") else MAPS_DIR / f"{scenario}.json"
+        scene = check_navigable(load_map(path), robot_width_m)
+        if not surface_detail:
+            return plain_surfaces(scene)
+        return scene if has_surface_detail(scene) else add_surface_detail(scene)
+    if scenario == "random" or scenario in FAMILIES:
+        family = scenario
+        if scenario == "random":
+            family = STANDARD_FAMILIES[
+                int(np.random.default_rng(seed).integers(len(STANDARD_FAMILIES)))
+            ]
+        generated = generate_scene(seed, family=family, robot_width_m=robot_width_m)
+        return add_surface_detail(generated, seed) if surface_detail else generated
     raise ValueError(
         f"scenario must be a map name {list(available_maps())}, a .json path, a family "
         f"{list(FAMILIES)} or 'random', got {scenario!r}"
