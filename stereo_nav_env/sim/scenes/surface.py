@@ -8,14 +8,18 @@ gives each face of a scene such vertical features (:class:`~stereo_nav_env.sim.s
 FaceFeature`), drawn from a seed, by what the face is:
 
 * walls (each side at least 0.4 m long whose outside is within the bounds, i.e. not the outer
-  side of a boundary wall): panel seams, dark joints 1-2.5 cm wide from the floor to the top, at
-  a regular panel width drawn per side (0.6-1.2 m; repeated, as panelling is); on sides longer
+  side of a boundary wall): panel seams, dark joints or cover strips 4-6 cm wide from the floor
+  to the top (narrower ones are under 3 px beyond 2 m, which the surrogate's photometry,
+  sampling 1.5 and 3 px beside an edge, cannot see, while the stereo's extraction still finds a
+  thin line), spaced by a panel width drawn per side (0.6-1.2 m) times 0.75-1.25 per seam
+  (walls are made of sections of several widths; strictly periodic seams are look-alikes whose
+  wrong matches all agree, the repeated pattern of the paper's section 4.2); on sides longer
   than 2 m, a door in one of three: two jambs 6-8 cm wide, 0.8-0.9 m apart, 2 m tall (or the
   wall's height), in a wood colour, with no seam between them;
-* boxes (cabinets; each side at least 0.3 m long): either doors, seams dividing the side into
-  0.3-0.5 m wide doors, or one front, a drawer or door panel of 25-60 % of the side in a shade of
-  its own (0.7-0.85 or 1.15-1.3 of the box's colour, clipped), from the floor to 55-95 % of its
-  height;
+* boxes (cabinets; each side at least 0.3 m long): either doors, seams 2-3 cm wide dividing
+  the side into 0.3-0.5 m wide doors, or one front, a drawer or door panel of 25-60 % of the
+  side in a shade of its own (0.7-0.85 or 1.15-1.3 of the box's colour, clipped), from the
+  floor to 55-95 % of its height;
 * bookshelves (rectangular, their front): books on two or three of the shelves, in groups of
   2-7 spines 2-5 cm wide between the dividers, 65-95 % of the shelf's clear height, in a
   palette of book colours, set back 1 cm behind the open front;
@@ -120,7 +124,7 @@ def _wall_detail(rng: np.random.Generator, ob: Obstacle, inside: Polygon) -> lis
                 )
             door = (start - 0.05, start + span + 0.05)
         panel = float(rng.uniform(0.6, 1.2))
-        width = float(rng.uniform(0.01, 0.025))
+        width = float(rng.uniform(0.04, 0.06))
         color = _shade(ob.color, float(rng.uniform(0.55, 0.75)))
         s = lo + float(rng.uniform(0.0, panel))
         while s + width / 2 <= hi:
@@ -136,7 +140,7 @@ def _wall_detail(rng: np.random.Generator, ob: Obstacle, inside: Polygon) -> lis
                         color=color,
                     )
                 )
-            s += panel
+            s += panel * float(rng.uniform(0.75, 1.25))
     return out
 
 
@@ -150,7 +154,7 @@ def _box_detail(rng: np.random.Generator, ob: Obstacle) -> list[FaceFeature]:
             continue
         if rng.random() < 0.5:  # doors: seams between them
             n = max(2, round(L / float(rng.uniform(0.3, 0.5))))
-            width = float(rng.uniform(0.008, 0.015))
+            width = float(rng.uniform(0.02, 0.03))
             color = _shade(ob.color, float(rng.uniform(0.45, 0.6)))
             for j in range(1, n):
                 out.append(

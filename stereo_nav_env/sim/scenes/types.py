@@ -92,9 +92,10 @@ class DetailKind(str, enum.Enum):
 
 DETAIL_PROUD_M = 0.003
 """How far a strip's front stands out of its face, metres (seams, door frames, fronts)."""
-DETAIL_INSET_M = 0.002
-"""How far a strip reaches into its face behind the face's plane, metres (so that its back corners
-are inside the obstacle and never seen)."""
+DETAIL_INSET_M = 0.012
+"""How far a strip reaches into its face behind the face's plane, metres: its back corners lie
+inside the obstacle, deeper than the surrogate's sight lines stop short of an edge
+(``PULL_BACK_M``, 5 mm), so they are hidden as in the image."""
 SPINE_SETBACK_M = 0.01
 """How far a book's spine stands behind the face's plane (a bookshelf's open front), metres."""
 SPINE_DEPTH_M = 0.18
