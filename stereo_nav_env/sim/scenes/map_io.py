@@ -46,6 +46,10 @@ A map file is one JSON object::
           "color": [r, g, b],                 # optional, each in [0, 1] (default per kind)
           "parts": [                          # optional; default: built from kind/footprint/height
             {"footprint": [[x, y], ...], "z": [z_min, z_max], "color": [r, g, b]}
+          ],
+          "detail": [                         # optional surface detail (surface.py)
+            {"kind": "seam" | "door_frame" | "front" | "spine", "face": 0, "offset": 0.5,
+             "width": 0.05, "z": [z_min, z_max], "color": [r, g, b]}
           ]
         }
       ]
@@ -83,6 +87,8 @@ from stereo_nav_env.sim.scenes.types import (
     DEFAULT_HEIGHT_M,
     DEFAULT_ROBOT_WIDTH_M,
     BoxPart,
+    DetailKind,
+    FaceFeature,
     Obstacle,
     ObstacleKind,
     Scene,
@@ -137,6 +143,18 @@ def _obstacle_to_json(ob: Obstacle) -> dict[str, Any]:
             }
             for p in ob.parts
         ]
+    if ob.detail:
+        out["detail"] = [
+            {
+                "kind": f.kind.value,
+                "face": f.face,
+                "offset": f.offset_m,
+                "width": f.width_m,
+                "z": [f.z_min_m, f.z_max_m],
+                "color": list(f.color),
+            }
+            for f in ob.detail
+        ]
     return out
 
 
@@ -169,6 +187,7 @@ class MapLimits:
         max_obstacles: Obstacles.
         max_vertices: Vertices of one footprint or part.
         max_parts: Rendering parts of one obstacle.
+        max_detail: Surface-detail features of one obstacle.
         max_area_m2: Area of the bounds, square metres (the geodesic grid of the rewards covers
             it with 5 cm cells).
     """
@@ -177,6 +196,7 @@ class MapLimits:
     max_obstacles: int = 1_000
     max_vertices: int = 256
     max_parts: int = 64
+    max_detail: int = 512
     max_area_m2: float = 2_500.0
 
 
@@ -192,7 +212,9 @@ def _limited(items: Any, field: str, limit: int, what: str) -> None:
 def _obstacle_from_json(data: Any, field: str) -> Obstacle:
     if not isinstance(data, Mapping):
         raise _err(field, f"must be an object, got {type(data).__name__}")
-    unknown = sorted(set(data) - {"kind", "footprint", "rect", "height", "color", "parts"})
+    unknown = sorted(
+        set(data) - {"kind", "footprint", "rect", "height", "color", "parts", "detail"}
+    )
     if unknown:
         raise _err(field, f"has unknown keys {unknown}")
     if "kind" not in data:
@@ -221,6 +243,69 @@ def _obstacle_from_json(data: Any, field: str) -> Obstacle:
     if height <= 0:
         raise _err(f"{field}.height", f"must be positive, got {height}")
     color = _color(data["color"], f"{field}.color") if "color" in data else DEFAULT_COLOR[kind]
+    obstacle = _obstacle_body(data, field, kind, fp, height, color)
+    if "detail" not in data:
+        return obstacle
+    detail = _detail_from_json(data["detail"], f"{field}.detail")
+    try:
+        return replace(obstacle, detail=detail)
+    except ValueError as exc:  # a feature off its face or above the top: name the obstacle
+        raise ValueError(f"{field}.{exc}") from exc
+
+
+def _detail_from_json(raw: Any, field: str) -> tuple[FaceFeature, ...]:
+    if not isinstance(raw, list):
+        raise _err(field, "must be a list")
+    _limited(raw, field, MAP_LIMITS.max_detail, "features")
+    out = []
+    for k, f in enumerate(raw):
+        ff = f"{field}[{k}]"
+        if not isinstance(f, Mapping):
+            raise _err(ff, "must be an object")
+        unknown = sorted(set(f) - {"kind", "face", "offset", "width", "z", "color"})
+        if unknown:
+            raise _err(ff, f"has unknown keys {unknown}")
+        for key in ("kind", "face", "offset", "width", "z", "color"):
+            if key not in f:
+                raise _err(f"{ff}.{key}", "is missing")
+        try:
+            kind = DetailKind(f["kind"])
+        except ValueError as exc:
+            choices = [k.value for k in DetailKind]
+            raise _err(f"{ff}.kind", f"must be one of {choices}, got {f['kind']!r}") from exc
+        face = f["face"]
+        if isinstance(face, bool) or not isinstance(face, int) or face < 0:
+            raise _err(f"{ff}.face", f"must be a non-negative integer, got {face!r}")
+        offset = _number(f["offset"], f"{ff}.offset")
+        width = _number(f["width"], f"{ff}.width")
+        if width <= 0:
+            raise _err(f"{ff}.width", f"must be positive, got {width}")
+        z = _vector(f["z"], f"{ff}.z", 2)
+        if not 0 <= z[0] < z[1]:
+            raise _err(f"{ff}.z", f"must satisfy 0 <= z_min < z_max, got {list(z)}")
+        out.append(
+            FaceFeature(
+                kind=kind,
+                face=face,
+                offset_m=offset,
+                width_m=width,
+                z_min_m=z[0],
+                z_max_m=z[1],
+                color=_color(f["color"], f"{ff}.color"),
+            )
+        )
+    return tuple(out)
+
+
+def _obstacle_body(
+    data: Mapping[str, Any],
+    field: str,
+    kind: ObstacleKind,
+    fp: Any,
+    height: float,
+    color: Any,
+) -> Obstacle:
+    """The obstacle of a map entry without its detail: default or listed parts."""
     if "parts" not in data:
         return make_obstacle(kind, fp, height, color)
     raw_parts = data["parts"]

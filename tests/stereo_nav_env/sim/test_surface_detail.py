@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from shapely.geometry import Polygon
@@ -13,10 +15,14 @@ from stereo_nav_env.sim.scenes import (
     ObstacleKind,
     add_surface_detail,
     generate_scene,
+    load_map,
     load_scenario,
     make_obstacle,
     oriented_rect,
     plain_surfaces,
+    save_map,
+    scene_from_json,
+    scene_to_json,
 )
 
 SEAM = {
@@ -127,3 +133,61 @@ def test_obstacle_validation_names_the_feature(change: dict, message: str) -> No
             parts=ob.parts,
             detail=(FaceFeature(**{**SEAM, **change}),),
         )
+
+
+# ------------------------------------------------------------------------------ map format
+def test_map_round_trip_keeps_the_detail(tmp_path) -> None:
+    scene = load_scenario("room", 6, surface_detail=True)
+    path = save_map(scene, tmp_path / "room.json")
+    back = load_map(path)
+    assert _features(back) == _features(scene)
+    for a, b in zip(scene.obstacles, back.obstacles, strict=True):
+        for pa, pb in zip(a.detail_parts, b.detail_parts, strict=True):
+            np.testing.assert_allclose(pa.footprint, pb.footprint, atol=1e-6)
+    assert "detail" not in json.dumps(scene_to_json(plain_surfaces(scene)))
+
+
+def test_a_maps_detail_follows_the_switch(tmp_path) -> None:
+    scene = load_scenario("room", 6, surface_detail=True)
+    path = str(save_map(scene, tmp_path / "room.json"))
+    assert _features(load_scenario(path, surface_detail=True)) == _features(scene)
+    assert not _features(load_scenario(path))  # off: plain faces
+    bundled = load_scenario("two_gaps", surface_detail=True)  # lists none: drawn from its name
+    assert _features(bundled) and _features(bundled) == _features(
+        load_scenario("two_gaps", surface_detail=True)
+    )
+    assert not _features(load_scenario("two_gaps"))
+
+
+def _map_with(detail: object) -> dict:
+    box = {"kind": "box", "rect": {"center": [2.0, 2.0], "size": [1.0, 0.5]}, "detail": detail}
+    return {"bounds": [0, 0, 5, 4], "start": [0.5, 0.5, 0], "goal": [4.5, 3.5], "obstacles": [box]}
+
+
+GOOD = {"kind": "seam", "face": 0, "offset": 0.5, "width": 0.02, "z": [0, 0.7], "color": [0, 0, 0]}
+
+
+@pytest.mark.parametrize(
+    ("detail", "message"),
+    [
+        ("seams", r"obstacles\[0\]\.detail must be a list"),
+        ([{**GOOD, "kind": "poster"}], r"obstacles\[0\]\.detail\[0\]\.kind must be one of"),
+        ([{**GOOD, "face": -1}], r"obstacles\[0\]\.detail\[0\]\.face must be a non-negative"),
+        ([{**GOOD, "face": 7}], r"obstacles\[0\]\.detail\[0\]\.face must be a side"),
+        ([{**GOOD, "width": 0}], r"obstacles\[0\]\.detail\[0\]\.width must be positive"),
+        ([{**GOOD, "offset": 0.999}], r"obstacles\[0\]\.detail\[0\]\.offset_m/width_m"),
+        ([{**GOOD, "z": [0.5, 0.1]}], r"obstacles\[0\]\.detail\[0\]\.z must satisfy"),
+        ([{**GOOD, "z": [0.0, 3.0]}], r"obstacles\[0\]\.detail\[0\]\.z_max_m must not exceed"),
+        ([{**GOOD, "color": [2, 0, 0]}], r"obstacles\[0\]\.detail\[0\]\.color"),
+        ([{**GOOD, "depth": 1}], r"obstacles\[0\]\.detail\[0\] has unknown keys \['depth'\]"),
+        ([{k: v for k, v in GOOD.items() if k != "z"}], r"detail\[0\]\.z is missing"),
+    ],
+)
+def test_map_validation_rejects_bad_detail(detail: object, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        scene_from_json(_map_with(detail))
+
+
+def test_map_detail_has_a_limit() -> None:
+    with pytest.raises(ValueError, match=r"detail has 513 features, more than the limit of 512"):
+        scene_from_json(_map_with([GOOD] * 513))
