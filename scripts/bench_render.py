@@ -1,10 +1,12 @@
 """Rendering benchmark: median time of a stereo pair of the default scene at several image sizes.
 
-    python scripts/bench_render.py [--repeats N] [--json FILE]
+    python scripts/bench_render.py [--repeats N] [--json FILE] [--scenario NAME] [--surface-detail]
 
 Figures (milliseconds): ``render_pair_<W>x<H>_ms`` for each size (both views of the rectified pair
 from the default start pose) and ``render_single_320x240_ms`` (one view, for reference). The OpenGL
-context is created and warmed up before timing.
+context is created and warmed up before timing. ``--scenario`` renders another map or a generated
+family (seed 0) from its start pose; ``--surface-detail`` draws its surface detail
+(``EnvConfig.surface_detail``).
 """
 
 from __future__ import annotations
@@ -37,7 +39,12 @@ def _median_ms(fn: object, repeats: int) -> float:
 
 
 def run(
-    sizes: Sequence[tuple[int, int]] = DEFAULT_SIZES, repeats: int = 50, *, quick: bool = False
+    sizes: Sequence[tuple[int, int]] = DEFAULT_SIZES,
+    repeats: int = 50,
+    *,
+    quick: bool = False,
+    scenario: str = "default",
+    surface_detail: bool = False,
 ) -> dict[str, float]:
     """Median render times in milliseconds, keyed by figure name.
 
@@ -45,11 +52,13 @@ def run(
         sizes: ``(width, height)`` image sizes of the pairs timed.
         repeats: Timed repetitions per figure (after 3 warm-up renders).
         quick: Smoke run: 5 repetitions.
+        scenario: The map or family drawn (a family with seed 0).
+        surface_detail: Draw the scene's surface detail.
     """
     if repeats < 1:
         raise ValueError(f"repeats must be a positive integer, got {repeats!r}")
     repeats = 5 if quick else repeats
-    scene = load_scenario("default")
+    scene = load_scenario(scenario, surface_detail=surface_detail)
     x, y, heading = scene.start
     figures: dict[str, float] = {}
     for width, height in sizes:
@@ -84,8 +93,15 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     parser.add_argument("--repeats", type=int, default=50, help="timed repetitions per figure")
     parser.add_argument("--json", type=pathlib.Path, help="write the figures to this JSON file")
     parser.add_argument("--quick", action="store_true", help="5 repetitions (smoke run)")
+    parser.add_argument("--scenario", default="default", help="map or family (seed 0)")
+    parser.add_argument("--surface-detail", action="store_true", help="draw surface detail")
     args = parser.parse_args(argv)
-    figures = run(repeats=args.repeats, quick=args.quick)
+    figures = run(
+        repeats=args.repeats,
+        quick=args.quick,
+        scenario=args.scenario,
+        surface_detail=args.surface_detail,
+    )
     print_figures(figures)
     write_figures(figures, args.json)
     return figures

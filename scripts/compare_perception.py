@@ -1,7 +1,7 @@
 """Compare the surrogate perception with the stereo pipeline on the same poses.
 
     python scripts/compare_perception.py [--family office] [--scenes 4] [--steps 120]
-                                         [--json FILE] [--plot FILE]
+                                         [--json FILE] [--plot FILE] [--surface-detail]
 
 Both envs (``perception="stereo"`` and ``"surrogate"``) are reset with the same seeds and driven
 by the same scripted actions, so the robot takes the same poses (the physics does not depend on
@@ -9,7 +9,10 @@ perception; a terminated episode restarts from the same seed). Per view: the obs
 critical regions of the most probable situation, the situations, and the diagnostics'
 ``coverage_95`` (pooled over the endpoints: each view weighs by its ``endpoints``). Printed for
 both pipelines with the surrogate's ratio to the stereo's; ``--plot`` draws both pipelines'
-``p_passable`` distributions (every critical region of every situation).
+``p_passable`` distributions (every critical region of every situation). ``ambiguous_share`` is
+the ambiguous segments over all measured floor segments (ambiguous and certain, faces left out),
+pooled over the views. ``--surface-detail`` runs both in the world with surface detail
+(``EnvConfig.surface_detail``).
 """
 
 from __future__ import annotations
@@ -39,9 +42,13 @@ def drive_action(i: int) -> np.ndarray:
     return np.array([0.6, 0.3 * math.sin(i / 9.0), 0.8 * math.sin(i / 6.0)], dtype=np.float32)
 
 
-def rollout(perception: str, family: str, scenes: int, steps: int, seed: int) -> dict[str, Any]:
+def rollout(
+    perception: str, family: str, scenes: int, steps: int, seed: int, surface_detail: bool = False
+) -> dict[str, Any]:
     """The per-view figures of ``scenes`` drives of ``steps`` steps with one perception."""
-    env = gym.make("StereoNav-v0", scenario=family, perception=perception)
+    env = gym.make(
+        "StereoNav-v0", scenario=family, perception=perception, surface_detail=surface_detail
+    )
     obstacles, regions, situations, ambiguous, segments, faces = [], [], [], [], [], []
     covered, endpoints = 0.0, 0.0
     p_passable: list[float] = []
@@ -82,6 +89,7 @@ def rollout(perception: str, family: str, scenes: int, steps: int, seed: int) ->
         "ambiguous_segments_per_view": float(np.mean(ambiguous)),
         "segments_per_view": float(np.mean(segments)),
         "face_segments_per_view": float(np.mean(faces)),
+        "ambiguous_share": float(np.sum(ambiguous) / max(1, np.sum(ambiguous) + np.sum(segments))),
         "coverage_95": covered / endpoints if endpoints else math.nan,
         "views": len(obstacles),
         "steps_per_s": len(obstacles) / seconds,
@@ -129,9 +137,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", type=pathlib.Path, default=None)
     parser.add_argument("--plot", type=pathlib.Path, default=None)
+    parser.add_argument("--surface-detail", action="store_true")
     args = parser.parse_args(argv)
     results = {
-        name: rollout(name, args.family, args.scenes, args.steps, args.seed) for name in PERCEPTIONS
+        name: rollout(name, args.family, args.scenes, args.steps, args.seed, args.surface_detail)
+        for name in PERCEPTIONS
     }
     stereo, surrogate = results["stereo"], results["surrogate"]
     if stereo["poses"] != surrogate["poses"]:
@@ -145,6 +155,7 @@ def main(argv: list[str] | None = None) -> int:
         "ambiguous_segments_per_view",
         "segments_per_view",
         "face_segments_per_view",
+        "ambiguous_share",
         "coverage_95",
         "steps_per_s",
     ):

@@ -4,7 +4,7 @@
         [--seed S]
         [--json FILE] [--markdown FILE] [--plot FILE] [--details FILE] [--scenario FAMILY]
         [--families F [F ...]] [--max-steps N] [--workers K] [--terminate-on-collision]
-        [--perception P] [--tilt RAD] [--fused-range M] [--ground-lines]
+        [--perception P] [--tilt RAD] [--fused-range M] [--ground-lines] [--surface-detail]
 
 ``--split dev`` (the default: seed 0 unless ``--seed``) runs suite seeds for tuning and diagnosis;
 ``--split test`` (seed 900000 unless ``--seed``) runs the seeds reserved for reported figures,
@@ -129,6 +129,12 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
         "(EnvConfig.ground_lines, modeling.stereo.ground_lines; perceptions stereo, "
         "stereo_means and surrogate)",
     )
+    parser.add_argument(
+        "--surface-detail",
+        action="store_true",
+        help="the scenes' faces carry surface detail: seams, door frames, fronts, book spines "
+        "(EnvConfig.surface_detail, stereo_nav_env.sim.scenes.surface; default: plain faces)",
+    )
     args = parser.parse_args(argv)
     cfg = suite_of(
         parser,
@@ -140,6 +146,7 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
         }
         | ({"terminate_on_collision": True} if args.terminate_on_collision else {})
         | ({"ground_lines": True} if args.ground_lines else {})
+        | ({"surface_detail": True} if args.surface_detail else {})
         | ({"camera": {"tilt_rad": args.tilt}} if args.tilt is not None else {}),
         navigator={"fused_range_m": args.fused_range} if args.fused_range > 0.0 else {},
     )

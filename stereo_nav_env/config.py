@@ -352,6 +352,13 @@ class EnvConfig:
             where they meet the floor (:mod:`modeling.stereo.ground_lines`, an addition to the
             paper's pipeline; off by default; perceptions ``stereo`` and ``stereo_means``, and
             ``surrogate``, which imitates those lines from the true scene).
+        surface_detail: Whether the faces of walls, boxes and bookshelves carry surface detail
+            (:mod:`stereo_nav_env.sim.scenes.surface`: panel seams, door frames, cabinet
+            fronts, book spines, drawn per scene from its seed; issue 42), which the stereo
+            sees as vertical edges on faces and the surrogate imitates. ``False`` (the default
+            for now): plain, flat-shaded faces, the world of every figure before issue 42, kept
+            for comparison; the scene, the rendering and every observation are then those of
+            the plain world exactly. A map's own listed detail is used when on, dropped when off.
         perception: :class:`~stereo_nav_env.perception.base.PerceptionName` (or its value):
             ``"stereo"`` (render the pair and run the stereo pipeline), ``"surrogate"`` (render
             nothing: the floor observation from the true scene and the stereo's error model and
@@ -392,6 +399,7 @@ class EnvConfig:
     model_max_situations: int = 64
     close_faces: bool = True
     ground_lines: bool = False
+    surface_detail: bool = False
     perception: PerceptionName = PerceptionName.STEREO
     memory: bool | None = None
     diagnostics: bool = True
@@ -417,6 +425,7 @@ class EnvConfig:
         number(self.stuck_progress_m, "stuck_progress_m", low=0.0)
         boolean(self.close_faces, "close_faces")
         boolean(self.ground_lines, "ground_lines")
+        boolean(self.surface_detail, "surface_detail")
         boolean(self.diagnostics, "diagnostics")
         boolean(self.info_models, "info_models")
         try:

@@ -11,7 +11,10 @@ pieces. Shading is baked: each face gets its part's base colour times a factor f
 orientation (tops brightest, the four side directions of world +x, +y, -x, -y at distinct levels;
 the values are in :mod:`stereo_nav_env.rendering.shading`, which the surrogate reads too), and the
 mesh is drawn with ``RenderFlags.FLAT`` (no lighting computation), so adjacent faces of a box differ
-and its edges appear as straight intensity steps. A directional light is kept in the scene for
+and its edges appear as straight intensity steps. Surface detail (``Obstacle.detail``: seams,
+door frames, fronts, book spines) is drawn the same way, each feature a thin prism
+(``Obstacle.detail_parts``) 3 mm proud of its face (a book: set back in its shelf), in the same
+merged mesh: no texture, no extra draw call. A directional light is kept in the scene for
 non-flat use.
 
 Cameras: the SAME :class:`modeling.StereoRig` drives the renderer. pyrender's ``IntrinsicsCamera``
@@ -117,7 +120,7 @@ def build_scene_mesh(scene: Scene, *, floor_margin_m: float = FLOOR_MARGIN_M) ->
     colors: list[FloatArray] = [np.tile(FLOOR_COLOR, (2, 1))]
     offset = 4
     for ob in scene.obstacles:
-        for part in ob.parts:
+        for part in ob.drawn_parts:  # its parts, then its surface detail's strips
             v, f, c = _prism(part)
             verts.append(v)
             faces.append(f + offset)

@@ -128,6 +128,7 @@ def test_derived_values_are_properties() -> None:
         "model_max_situations",
         "close_faces",
         "ground_lines",
+        "surface_detail",
         "perception",
         "memory",
         "diagnostics",

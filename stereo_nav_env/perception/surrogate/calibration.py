@@ -233,7 +233,7 @@ def edge_records(
 def _bookshelf_repeated(scene: Scene, edges: SceneEdges, vis: VisibleEdges) -> NDArray[np.bool_]:
     """Whether each seen edge is a repeated edge of a bookshelf (its group has several edges)."""
     part_obstacle = np.concatenate(
-        [np.full(len(ob.parts), o) for o, ob in enumerate(scene.obstacles)]
+        [np.full(len(ob.drawn_parts), o) for o, ob in enumerate(scene.obstacles)]
     ).astype(np.int64)
     shelf = np.array([ob.kind is ObstacleKind.BOOKSHELF for ob in scene.obstacles])
     counts = np.bincount(edges.corner_group)

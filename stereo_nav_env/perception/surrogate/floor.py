@@ -203,7 +203,7 @@ def visible_ground_lines(
     near = np.hypot(*(nearest - head_xy).T) <= max_range_m
     mid = 0.5 * (a_all + b_all)
     facing = np.einsum("li,li->l", edges.line_normal, head_xy - mid) > 0.0
-    lines = np.flatnonzero(near & facing)
+    lines = np.flatnonzero(near & facing & ~edges.line_detail)
     if lines.size == 0:
         return np.zeros((0, 2, 2))
     count = np.maximum(np.ceil(length[lines] / step_m).astype(np.int64), 2)

@@ -50,7 +50,7 @@ from stereo_nav_env.rendering.shading import (
     face_shades,
     grey_levels,
 )
-from stereo_nav_env.sim.scenes import ObstacleKind, Scene
+from stereo_nav_env.sim.scenes import DetailKind, Obstacle, ObstacleKind, Scene
 
 __all__ = [
     "PULL_BACK_M",
@@ -100,7 +100,11 @@ class SceneEdges:
             part has). ``side_normal``: (P, V, 2) the outward unit normal of the side from each.
         line_ends: (L, 2, 2) floor sides of the parts standing on the floor (``z_min`` 0), the
             part's counter-clockwise order. ``line_normal``: (L, 2) outward unit normals.
-            ``line_corners``: (L, 2) the corner edges at their two ends.
+            ``line_corners``: (L, 2) the corner edges at their two ends. ``line_detail``:
+            (L,) whether the line is a stretch of a face between its surface detail's strips
+            (after the parts' own sides): a face's bottom edge as the image shows it between
+            the strips, the line :func:`modeling.stereo.faces.close_faces` joins two strips'
+            edges by (the ground lines leave these out: the face's own side is there).
         side_grey: (P, V) the grey level the renderer gives each side face (padded like
             ``side_start``); ``top_grey``, ``bottom_grey``: (P,) those of the top and bottom
             faces (:mod:`stereo_nav_env.rendering.shading`).
@@ -124,6 +128,7 @@ class SceneEdges:
     line_ends: FloatArray
     line_normal: FloatArray
     line_corners: IntArray
+    line_detail: NDArray[np.bool_]
     side_grey: FloatArray
     top_grey: FloatArray
     bottom_grey: FloatArray
@@ -137,7 +142,8 @@ class SceneEdges:
         polys: list[shapely.Polygon] = []
         z_min: list[float] = []
         z_max: list[float] = []
-        xy, zz, part_of, normals, groups, plain, kinds = [], [], [], [], [], [], []
+        xy: list[FloatArray] = []
+        zz, part_of, normals, groups, plain, kinds = [], [], [], [], [], []
         kind_index = {kind: k for k, kind in enumerate(ObstacleKind)}
         ends: list[FloatArray] = []
         line_n: list[FloatArray] = []
@@ -147,8 +153,12 @@ class SceneEdges:
         side_c: list[FloatArray] = []
         flat_c: list[FloatArray] = []
         keys: dict[tuple[object, ...], int] = {}
+        detail_ends: list[FloatArray] = []
+        detail_n: list[FloatArray] = []
+        detail_c: list[tuple[int, int]] = []
         for o, ob in enumerate(scene.obstacles):
-            for part in ob.parts:
+            first_corner = len(xy)
+            for part in ob.drawn_parts:
                 p = len(polys)
                 fp = part.footprint
                 polys.append(shapely.Polygon(fp))
@@ -183,6 +193,12 @@ class SceneEdges:
                     line_c.extend(
                         (first + k, first + (k + 1) % fp.shape[0]) for k in range(fp.shape[0])
                     )
+            if ob.detail:
+                _detail_floor_lines(ob, first_corner, detail_ends, detail_n, detail_c)
+        line_detail = [False] * len(ends) + [True] * len(detail_ends)
+        ends += detail_ends
+        line_n += detail_n
+        line_c += detail_c
         v_max = max((fp.shape[0] for fp in starts), default=1)
 
         def padded(rows: list[FloatArray]) -> FloatArray:
@@ -212,6 +228,7 @@ class SceneEdges:
             line_ends=np.array(ends).reshape(-1, 2, 2),
             line_normal=np.array(line_n).reshape(-1, 2),
             line_corners=np.array(line_c, dtype=np.int64).reshape(-1, 2),
+            line_detail=np.array(line_detail, dtype=bool),
             side_grey=grey_levels(padded(side_c)),
             top_grey=flat[:, 0],
             bottom_grey=flat[:, 1],
@@ -219,6 +236,61 @@ class SceneEdges:
             floor_grey=float(grey_levels(np.array(FLOOR_COLOR))),
             background_grey=float(grey_levels(np.array(BACKGROUND_COLOR))),
         )
+
+
+def _detail_floor_lines(
+    ob: Obstacle,
+    first_corner: int,
+    ends: list[FloatArray],
+    normals: list[FloatArray],
+    corners: list[tuple[int, int]],
+) -> None:
+    """Append the floor lines of ``ob``'s faces between its surface detail's strips.
+
+    On each side of the footprint, the strips that stand on the floor (not books) cut the
+    side's bottom edge into stretches: from the side's first corner (when the obstacle's first
+    part is its footprint's prism) to the first strip's front corner, between each strip's
+    right front corner and the next one's left, to the side's last corner. Their ends are corner
+    edges (``first_corner`` is the obstacle's first corner index; a part's corners follow its
+    footprint, a strip's front corners are its first two).
+    """
+    fp = ob.footprint
+    k = fp.shape[0]
+    prism = len(ob.parts) >= 1 and ob.parts[0].footprint.shape == fp.shape
+    prism = prism and bool(np.allclose(ob.parts[0].footprint, fp))
+    strip_first = first_corner + sum(p.footprint.shape[0] for p in ob.parts)
+    starts: list[int] = []
+    for part in ob.detail_parts:
+        starts.append(strip_first)
+        strip_first += part.footprint.shape[0]
+    side = np.roll(fp, -1, axis=0) - fp
+    n = np.stack([side[:, 1], -side[:, 0]], axis=1)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    for face in range(k):
+        on = sorted(
+            (f.offset_m, j)
+            for j, f in enumerate(ob.detail)
+            if f.face == face and f.z_min_m <= 1e-6 and f.kind is not DetailKind.SPINE
+        )
+        if not on:
+            continue
+        # (point, corner) along the side: its start, each strip's two front corners, its end
+        chain: list[tuple[FloatArray, int]] = []
+        for _, j in on:
+            c = starts[j]
+            strip = ob.detail_parts[j].footprint
+            chain += [(strip[0], c), (strip[1], c + 1)]
+        if prism:
+            e = (face + 1) % k
+            chain = [(fp[face], first_corner + face), *chain, (fp[e], first_corner + e)]
+        else:
+            chain = chain[1:-1]
+        along = side[face] / np.linalg.norm(side[face])
+        for (a, ca), (b, cb) in zip(chain[0::2], chain[1::2], strict=True):
+            if float((b - a) @ along) > 1e-6:
+                ends.append(np.stack([a, b]))
+                normals.append(n[face])
+                corners.append((ca, cb))
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)

@@ -10,7 +10,9 @@ goal. The package has one module per concept:
 * :mod:`~stereo_nav_env.sim.scenes.map_io`: the JSON map format (``stereo-nav-map/1``,
   :func:`load_map`, :func:`save_map`), the bundled maps and :func:`load_scenario`,
 * :mod:`~stereo_nav_env.sim.scenes.generator`: the families and their layouts
-  (:func:`generate_scene`).
+  (:func:`generate_scene`),
+* :mod:`~stereo_nav_env.sim.scenes.surface`: surface detail on the faces (seams, door frames,
+  fronts, book spines: :func:`add_surface_detail`, :func:`plain_surfaces`).
 
 Every public name is importable from here: ``from stereo_nav_env.sim.scenes import Scene``.
 """
@@ -37,12 +39,19 @@ from stereo_nav_env.sim.scenes.map_io import (
     scene_to_json,
 )
 from stereo_nav_env.sim.scenes.parts import make_obstacle, oriented_rect
+from stereo_nav_env.sim.scenes.surface import (
+    add_surface_detail,
+    has_surface_detail,
+    plain_surfaces,
+)
 from stereo_nav_env.sim.scenes.types import (
     DEFAULT_COLOR,
     DEFAULT_HEIGHT_M,
     DEFAULT_MARGIN_M,
     DEFAULT_ROBOT_WIDTH_M,
     BoxPart,
+    DetailKind,
+    FaceFeature,
     Gap,
     Obstacle,
     ObstacleKind,
@@ -63,18 +72,23 @@ __all__ = [
     "STANDARD_FAMILIES",
     "WALL_THICKNESS_M",
     "BoxPart",
+    "DetailKind",
+    "FaceFeature",
     "Gap",
     "MapLimits",
     "Obstacle",
     "ObstacleKind",
     "Scene",
+    "add_surface_detail",
     "available_maps",
     "check_navigable",
     "generate_scene",
+    "has_surface_detail",
     "load_map",
     "load_scenario",
     "make_obstacle",
     "oriented_rect",
+    "plain_surfaces",
     "save_map",
     "scene_from_json",
     "scene_to_json",

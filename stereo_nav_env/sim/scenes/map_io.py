@@ -46,6 +46,10 @@ A map file is one JSON object::
           "color": [r, g, b],                 # optional, each in [0, 1] (default per kind)
           "parts": [                          # optional; default: built from kind/footprint/height
             {"footprint": [[x, y], ...], "z": [z_min, z_max], "color": [r, g, b]}
+          ],
+          "detail": [                         # optional surface detail (surface.py)
+            {"kind": "seam" | "door_frame" | "front" | "spine", "face": 0, "offset": 0.5,
+             "width": 0.05, "z": [z_min, z_max], "color": [r, g, b]}
           ]
         }
       ]
@@ -73,11 +77,18 @@ from shapely.geometry import Point
 from modeling.validation import positive
 from stereo_nav_env.sim.scenes.generator import FAMILIES, STANDARD_FAMILIES, generate_scene
 from stereo_nav_env.sim.scenes.parts import build_parts, make_obstacle, oriented_rect
+from stereo_nav_env.sim.scenes.surface import (
+    add_surface_detail,
+    has_surface_detail,
+    plain_surfaces,
+)
 from stereo_nav_env.sim.scenes.types import (
     DEFAULT_COLOR,
     DEFAULT_HEIGHT_M,
     DEFAULT_ROBOT_WIDTH_M,
     BoxPart,
+    DetailKind,
+    FaceFeature,
     Obstacle,
     ObstacleKind,
     Scene,
@@ -132,6 +143,18 @@ def _obstacle_to_json(ob: Obstacle) -> dict[str, Any]:
             }
             for p in ob.parts
         ]
+    if ob.detail:
+        out["detail"] = [
+            {
+                "kind": f.kind.value,
+                "face": f.face,
+                "offset": f.offset_m,
+                "width": f.width_m,
+                "z": [f.z_min_m, f.z_max_m],
+                "color": list(f.color),
+            }
+            for f in ob.detail
+        ]
     return out
 
 
@@ -164,6 +187,7 @@ class MapLimits:
         max_obstacles: Obstacles.
         max_vertices: Vertices of one footprint or part.
         max_parts: Rendering parts of one obstacle.
+        max_detail: Surface-detail features of one obstacle.
         max_area_m2: Area of the bounds, square metres (the geodesic grid of the rewards covers
             it with 5 cm cells).
     """
@@ -172,6 +196,7 @@ class MapLimits:
     max_obstacles: int = 1_000
     max_vertices: int = 256
     max_parts: int = 64
+    max_detail: int = 512
     max_area_m2: float = 2_500.0
 
 
@@ -187,7 +212,9 @@ def _limited(items: Any, field: str, limit: int, what: str) -> None:
 def _obstacle_from_json(data: Any, field: str) -> Obstacle:
     if not isinstance(data, Mapping):
         raise _err(field, f"must be an object, got {type(data).__name__}")
-    unknown = sorted(set(data) - {"kind", "footprint", "rect", "height", "color", "parts"})
+    unknown = sorted(
+        set(data) - {"kind", "footprint", "rect", "height", "color", "parts", "detail"}
+    )
     if unknown:
         raise _err(field, f"has unknown keys {unknown}")
     if "kind" not in data:
@@ -216,6 +243,69 @@ def _obstacle_from_json(data: Any, field: str) -> Obstacle:
     if height <= 0:
         raise _err(f"{field}.height", f"must be positive, got {height}")
     color = _color(data["color"], f"{field}.color") if "color" in data else DEFAULT_COLOR[kind]
+    obstacle = _obstacle_body(data, field, kind, fp, height, color)
+    if "detail" not in data:
+        return obstacle
+    detail = _detail_from_json(data["detail"], f"{field}.detail")
+    try:
+        return replace(obstacle, detail=detail)
+    except ValueError as exc:  # a feature off its face or above the top: name the obstacle
+        raise ValueError(f"{field}.{exc}") from exc
+
+
+def _detail_from_json(raw: Any, field: str) -> tuple[FaceFeature, ...]:
+    if not isinstance(raw, list):
+        raise _err(field, "must be a list")
+    _limited(raw, field, MAP_LIMITS.max_detail, "features")
+    out = []
+    for k, f in enumerate(raw):
+        ff = f"{field}[{k}]"
+        if not isinstance(f, Mapping):
+            raise _err(ff, "must be an object")
+        unknown = sorted(set(f) - {"kind", "face", "offset", "width", "z", "color"})
+        if unknown:
+            raise _err(ff, f"has unknown keys {unknown}")
+        for key in ("kind", "face", "offset", "width", "z", "color"):
+            if key not in f:
+                raise _err(f"{ff}.{key}", "is missing")
+        try:
+            kind = DetailKind(f["kind"])
+        except ValueError as exc:
+            choices = [k.value for k in DetailKind]
+            raise _err(f"{ff}.kind", f"must be one of {choices}, got {f['kind']!r}") from exc
+        face = f["face"]
+        if isinstance(face, bool) or not isinstance(face, int) or face < 0:
+            raise _err(f"{ff}.face", f"must be a non-negative integer, got {face!r}")
+        offset = _number(f["offset"], f"{ff}.offset")
+        width = _number(f["width"], f"{ff}.width")
+        if width <= 0:
+            raise _err(f"{ff}.width", f"must be positive, got {width}")
+        z = _vector(f["z"], f"{ff}.z", 2)
+        if not 0 <= z[0] < z[1]:
+            raise _err(f"{ff}.z", f"must satisfy 0 <= z_min < z_max, got {list(z)}")
+        out.append(
+            FaceFeature(
+                kind=kind,
+                face=face,
+                offset_m=offset,
+                width_m=width,
+                z_min_m=z[0],
+                z_max_m=z[1],
+                color=_color(f["color"], f"{ff}.color"),
+            )
+        )
+    return tuple(out)
+
+
+def _obstacle_body(
+    data: Mapping[str, Any],
+    field: str,
+    kind: ObstacleKind,
+    fp: Any,
+    height: float,
+    color: Any,
+) -> Obstacle:
+    """The obstacle of a map entry without its detail: default or listed parts."""
     if "parts" not in data:
         return make_obstacle(kind, fp, height, color)
     raw_parts = data["parts"]
@@ -396,7 +486,11 @@ def available_maps() -> tuple[str, ...]:
 
 
 def load_scenario(
-    scenario: str, seed: int = 0, *, robot_width_m: float = DEFAULT_ROBOT_WIDTH_M
+    scenario: str,
+    seed: int = 0,
+    *,
+    robot_width_m: float = DEFAULT_ROBOT_WIDTH_M,
+    surface_detail: bool = False,
 ) -> Scene:
     """A scene by name: a bundled map, a ``.json`` path, a family name, or ``"random"``.
 
@@ -404,22 +498,32 @@ def load_scenario(
         scenario: ``"default"`` or another bundled map name, a path ending in ``.json``, one of
             :data:`FAMILIES` (generated from ``seed``) or ``"random"`` (the family is drawn from
             ``seed`` as well, among :data:`STANDARD_FAMILIES`).
-        seed: Seed of generated scenes.
+        seed: Seed of generated scenes (and of their surface detail).
         robot_width_m: Robot width the generator guarantees a route for.
+        surface_detail: Whether the faces carry surface detail
+            (:mod:`~stereo_nav_env.sim.scenes.surface`): a generated scene gets the detail drawn
+            from ``seed``; a map keeps the detail it lists, and a map that lists none gets
+            detail drawn from its name. ``False``: plain faces (a map's listed detail is
+            dropped); the scene is then exactly the one loaded or generated.
     """
     if not isinstance(scenario, str) or not scenario:
         raise ValueError(f"scenario must be a non-empty string, got {scenario!r}")
-    if scenario.endswith(".json"):
-        return check_navigable(load_map(scenario), robot_width_m)
-    if scenario in available_maps():
-        return check_navigable(load_map(MAPS_DIR / f"{scenario}.json"), robot_width_m)
-    if scenario == "random":
-        family = STANDARD_FAMILIES[
-            int(np.random.default_rng(seed).integers(len(STANDARD_FAMILIES)))
-        ]
-        return generate_scene(seed, family=family, robot_width_m=robot_width_m)
-    if scenario in FAMILIES:
-        return generate_scene(seed, family=scenario, robot_width_m=robot_width_m)
+    if not isinstance(surface_detail, bool):
+        raise ValueError(f"surface_detail must be True or False, got {surface_detail!r}")
+    if scenario.endswith(".json") or scenario in available_maps():
+        path = scenario if scenario.endswith(".json") else MAPS_DIR / f"{scenario}.json"
+        scene = check_navigable(load_map(path), robot_width_m)
+        if not surface_detail:
+            return plain_surfaces(scene)
+        return scene if has_surface_detail(scene) else add_surface_detail(scene)
+    if scenario == "random" or scenario in FAMILIES:
+        family = scenario
+        if scenario == "random":
+            family = STANDARD_FAMILIES[
+                int(np.random.default_rng(seed).integers(len(STANDARD_FAMILIES)))
+            ]
+        generated = generate_scene(seed, family=family, robot_width_m=robot_width_m)
+        return add_surface_detail(generated, seed) if surface_detail else generated
     raise ValueError(
         f"scenario must be a map name {list(available_maps())}, a .json path, a family "
         f"{list(FAMILIES)} or 'random', got {scenario!r}"

@@ -12,6 +12,7 @@ footprints are drawn as one prism (a non-convex one as triangles).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import shapely
@@ -31,7 +32,14 @@ from stereo_nav_env.sim.scenes.types import (
     _polygon_array,
 )
 
-__all__ = ["build_parts", "make_obstacle", "oriented_rect"]
+__all__ = [
+    "ShelfLayout",
+    "build_parts",
+    "make_obstacle",
+    "oriented_rect",
+    "rect_frame",
+    "shelf_layout",
+]
 
 
 _LEG_COLOR: Color = (0.22, 0.18, 0.15)
@@ -62,6 +70,53 @@ def oriented_rect(
     rot = np.array([[co, -si], [si, co]])
     corners: FloatArray = half @ rot.T + c
     return corners
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ShelfLayout:
+    """Where a bookshelf's boards and dividers are (local coordinates: ``u`` along its front
+    from the first footprint corner, metres; heights in metres).
+
+    Attributes:
+        side_m: Thickness of its sides and dividers.
+        back_m: Thickness of its back panel.
+        board_m: Thickness of a shelf board.
+        board_z_m: Bottom height of each board, lowest first (the lowest at 0).
+        divider_u_m: Middle of each vertical divider along the front.
+    """
+
+    side_m: float
+    back_m: float
+    board_m: float
+    board_z_m: tuple[float, ...]
+    divider_u_m: tuple[float, ...]
+
+
+def shelf_layout(length_m: float, depth_m: float, height_m: float) -> ShelfLayout:
+    """The boards and dividers of a bookshelf ``length_m`` long, ``depth_m`` deep and
+    ``height_m`` tall: a board about every 0.36 m of height, a divider about every 0.3 m of
+    length (the default parts, :func:`build_parts`; the books of
+    :mod:`~stereo_nav_env.sim.scenes.surface` stand on the boards between the dividers)."""
+    length, depth, h = length_m, depth_m, height_m
+    t = min(0.03, length / 8)
+    back = min(0.02, depth / 4)
+    board = min(0.025, h / 16)
+    n_levels = max(2, round(h / 0.36))
+    board_z = tuple(
+        k * (h - board) / (n_levels - 1) if n_levels > 1 else 0.0 for k in range(n_levels)
+    )
+    n_bays = max(1, round((length - 2 * t) / 0.3))
+    inner = length - 2 * t
+    dividers = tuple(t + k * inner / n_bays for k in range(1, n_bays))
+    return ShelfLayout(
+        side_m=t, back_m=back, board_m=board, board_z_m=board_z, divider_u_m=dividers
+    )
+
+
+def rect_frame(footprint: FloatArray) -> tuple[FloatArray, float, float, float] | None:
+    """``(centre (2,), length, depth, yaw)`` of a rectangular footprint (4, 2) (its first side
+    is the length), or None if the footprint is not a rectangle."""
+    return _rect_frame(footprint)
 
 
 def _rect_frame(footprint: FloatArray) -> tuple[FloatArray, float, float, float] | None:
@@ -178,22 +233,16 @@ def build_parts(kind: ObstacleKind, fp: FloatArray, h: float, color: Color) -> t
                     )
                 )
     elif kind is ObstacleKind.BOOKSHELF:
-        t = min(0.03, length / 8)
-        back = min(0.02, depth / 4)
-        board = min(0.025, h / 16)
+        shelf = shelf_layout(length, depth, h)
+        t, back, board = shelf.side_m, shelf.back_m, shelf.board_m
         parts.append(_local_part(frame, (0, length), (depth - back, depth), (0, h), _BACK_COLOR))
         parts.append(_local_part(frame, (0, t), (0, depth - back), (0, h), color))
         parts.append(_local_part(frame, (length - t, length), (0, depth - back), (0, h), color))
-        n_levels = max(2, round(h / 0.36))
-        for k in range(n_levels):
-            z0 = k * (h - board) / (n_levels - 1) if n_levels > 1 else 0.0
+        for z0 in shelf.board_z_m:
             parts.append(
                 _local_part(frame, (t, length - t), (0, depth - back), (z0, z0 + board), color)
             )
-        n_bays = max(1, round((length - 2 * t) / 0.3))
-        inner = length - 2 * t
-        for k in range(1, n_bays):
-            uc = t + k * inner / n_bays
+        for uc in shelf.divider_u_m:
             parts.append(
                 _local_part(frame, (uc - t / 2, uc + t / 2), (0, depth - back), (0, h), color)
             )

@@ -1,5 +1,5 @@
-"""The scene's types: :class:`Scene`, :class:`Obstacle`, :class:`BoxPart`, :class:`Gap` and
-:class:`ObstacleKind`, with the checks that keep them valid.
+"""The scene's types: :class:`Scene`, :class:`Obstacle`, :class:`BoxPart`, :class:`FaceFeature`,
+:class:`Gap`, :class:`ObstacleKind` and :class:`DetailKind`, with the checks that keep them valid.
 
 A :class:`Scene` is what the simulator knows for certain: the room's bounds, the obstacles (each
 with its true 2D collision outline and the 3D boxes that draw it), the robot's start pose and the
@@ -8,7 +8,11 @@ radians counter-clockwise from +x.
 
 Every obstacle has a ``kind``, a ``footprint`` (k, 2) polygon in world metres that is the robot's
 true collision outline, a height and a tuple of :class:`BoxPart` prisms used only for rendering
-(built from the kind by :func:`stereo_nav_env.sim.scenes.parts.make_obstacle`).
+(built from the kind by :func:`stereo_nav_env.sim.scenes.parts.make_obstacle`), and may carry
+surface detail: :class:`FaceFeature` strips on its faces (panel seams, door frames, cabinet fronts,
+book spines; issue 42), drawn as thin prisms (:attr:`Obstacle.detail_parts`) that give a face
+seen face-on the vertical edges segment stereo matches. The detail is generated per scene by
+:mod:`stereo_nav_env.sim.scenes.surface`; it changes nothing the robot collides with.
 
 :meth:`Scene.gaps` lists the true gaps between pairs of obstacles (closest points, width), the
 ground truth for passability; :meth:`Scene.doubtful_gaps` keeps those within a relative tolerance
@@ -17,6 +21,7 @@ of the robot's width.
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import math
 from collections.abc import Sequence
@@ -37,8 +42,14 @@ __all__ = [
     "DEFAULT_HEIGHT_M",
     "DEFAULT_MARGIN_M",
     "DEFAULT_ROBOT_WIDTH_M",
+    "DETAIL_INSET_M",
+    "DETAIL_PROUD_M",
+    "SPINE_DEPTH_M",
+    "SPINE_SETBACK_M",
     "BoxPart",
     "Color",
+    "DetailKind",
+    "FaceFeature",
     "Gap",
     "Obstacle",
     "ObstacleKind",
@@ -64,6 +75,31 @@ class ObstacleKind(str, enum.Enum):
     BOOKSHELF = "bookshelf"
     BOX = "box"
 
+
+class DetailKind(str, enum.Enum):
+    """The closed set of surface-detail kinds (:class:`FaceFeature`).
+
+    ``seam``: a narrow dark joint between wall panels or cabinet doors; ``door_frame``: a door's
+    jamb on a wall; ``front``: a door or drawer front of a piece of furniture, a panel of its own
+    shade; ``spine``: a book standing on a shelf, set back behind the shelf's open front.
+    """
+
+    SEAM = "seam"
+    DOOR_FRAME = "door_frame"
+    FRONT = "front"
+    SPINE = "spine"
+
+
+DETAIL_PROUD_M = 0.003
+"""How far a strip's front stands out of its face, metres (seams, door frames, fronts)."""
+DETAIL_INSET_M = 0.012
+"""How far a strip reaches into its face behind the face's plane, metres: its back corners lie
+inside the obstacle, deeper than the surrogate's sight lines stop short of an edge
+(``PULL_BACK_M``, 5 mm), so they are hidden as in the image."""
+SPINE_SETBACK_M = 0.01
+"""How far a book's spine stands behind the face's plane (a bookshelf's open front), metres."""
+SPINE_DEPTH_M = 0.18
+"""A book's depth into the shelf, metres."""
 
 DEFAULT_HEIGHT_M: dict[ObstacleKind, float] = {
     ObstacleKind.WALL: 2.0,
@@ -128,6 +164,78 @@ def _color(value: Any, field: str) -> Color:
 
 
 # ---------------------------------------------------------------------------------------- types
+@dataclass(frozen=True, slots=True, kw_only=True)
+class FaceFeature:
+    """One vertical feature on a face of an obstacle: a strip drawn on (or, for a book, behind)
+    the face, whose two vertical sides are edges segment stereo can match.
+
+    Attributes:
+        kind: What it is (:class:`DetailKind`).
+        face: The obstacle's side it lies on: the side from footprint corner ``face`` to corner
+            ``face + 1`` of the counter-clockwise footprint (non-negative integer).
+        offset_m: Position of the strip's middle along that side, metres from its first corner.
+        width_m: Width of the strip along the side, metres (> 0).
+        z_min_m: Bottom height, metres (>= 0).
+        z_max_m: Top height, metres (> z_min_m, at most the obstacle's height).
+        color: RGB in [0, 1]; the renderer shades the strip's faces by orientation like any part.
+    """
+
+    kind: DetailKind
+    face: int
+    offset_m: float
+    width_m: float
+    z_min_m: float
+    z_max_m: float
+    color: Color
+
+    def __post_init__(self) -> None:
+        try:
+            object.__setattr__(self, "kind", DetailKind(self.kind))
+        except ValueError as exc:
+            choices = [k.value for k in DetailKind]
+            raise ValueError(f"kind must be one of {choices}, got {self.kind!r}") from exc
+        if (
+            isinstance(self.face, bool)
+            or not isinstance(self.face, int | np.integer)
+            or self.face < 0
+        ):
+            raise ValueError(f"face must be a non-negative integer, got {self.face!r}")
+        object.__setattr__(self, "face", int(self.face))
+        object.__setattr__(self, "offset_m", _number(self.offset_m, "offset_m"))
+        width = _number(self.width_m, "width_m")
+        if width <= 0:
+            raise ValueError(f"width_m must be positive, got {self.width_m!r}")
+        object.__setattr__(self, "width_m", width)
+        z0, z1 = _number(self.z_min_m, "z_min_m"), _number(self.z_max_m, "z_max_m")
+        if z0 < 0 or z1 <= z0:
+            raise ValueError(f"z_min_m/z_max_m must satisfy 0 <= z_min_m < z_max_m, got {z0}, {z1}")
+        object.__setattr__(self, "z_min_m", z0)
+        object.__setattr__(self, "z_max_m", z1)
+        object.__setattr__(self, "color", _color(self.color, "color"))
+
+    def across_m(self) -> tuple[float, float]:
+        """The strip's extent across its face, metres along the face's outward normal:
+        ``(back, front)``, the face's plane at 0."""
+        if self.kind is DetailKind.SPINE:
+            return (-SPINE_SETBACK_M - SPINE_DEPTH_M, -SPINE_SETBACK_M)
+        return (-DETAIL_INSET_M, DETAIL_PROUD_M)
+
+    def footprint(self, obstacle_footprint: FloatArray) -> FloatArray:
+        """The strip's floor outline (4, 2), world metres, counter-clockwise, on side
+        :attr:`face` of ``obstacle_footprint`` (k, 2) (counter-clockwise)."""
+        k = obstacle_footprint.shape[0]
+        a, b = obstacle_footprint[self.face % k], obstacle_footprint[(self.face + 1) % k]
+        t = (b - a) / float(np.linalg.norm(b - a))
+        n = np.array([t[1], -t[0]])  # outward normal of a counter-clockwise outline
+        s0, s1 = self.offset_m - self.width_m / 2.0, self.offset_m + self.width_m / 2.0
+        d0, d1 = self.across_m()
+        # counter-clockwise: along the side on the back line, then back on the front line
+        out: FloatArray = np.array(
+            [a + s0 * t + d1 * n, a + s1 * t + d1 * n, a + s1 * t + d0 * n, a + s0 * t + d0 * n]
+        )
+        return out
+
+
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
 class BoxPart:
     """One rendered prism: a convex floor outline extruded between two heights.
@@ -165,6 +273,12 @@ class Obstacle:
         height_m: Height of its top, metres.
         color: Base RGB in [0, 1] of its main parts.
         parts: The prisms that draw it (renderer only).
+        detail: Its surface detail (:class:`FaceFeature`; empty: plain faces). Each feature
+            must lie on a side of the footprint (``face`` < the number of corners), within it
+            (``0 <= offset_m - width_m / 2`` and ``offset_m + width_m / 2 <= `` the side's
+            length) and below the top (``z_max_m <= height_m``).
+        detail_parts: The detail's prisms (derived; one per feature, in order): what the
+            renderer and the surrogate perception draw besides :attr:`parts`.
     """
 
     kind: ObstacleKind
@@ -172,6 +286,8 @@ class Obstacle:
     height_m: float
     color: Color
     parts: tuple[BoxPart, ...]
+    detail: tuple[FaceFeature, ...] = ()
+    detail_parts: tuple[BoxPart, ...] = dataclasses.field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         try:
@@ -186,6 +302,51 @@ class Obstacle:
         object.__setattr__(self, "height_m", height)
         object.__setattr__(self, "color", _color(self.color, "color"))
         object.__setattr__(self, "parts", tuple(self.parts))
+        detail = tuple(self.detail)
+        fp = self.footprint
+        k = fp.shape[0]
+        sides = np.linalg.norm(np.roll(fp, -1, axis=0) - fp, axis=1)
+        for i, feature in enumerate(detail):
+            f = f"detail[{i}]"
+            if not isinstance(feature, FaceFeature):
+                raise ValueError(f"{f} must be a FaceFeature, got {type(feature).__name__}")
+            if feature.face >= k:
+                raise ValueError(
+                    f"{f}.face must be a side of the footprint (< {k}), got {feature.face}"
+                )
+            length = float(sides[feature.face])
+            lo = feature.offset_m - feature.width_m / 2.0
+            hi = feature.offset_m + feature.width_m / 2.0
+            if lo < -1e-9 or hi > length + 1e-9:
+                raise ValueError(
+                    f"{f}.offset_m/width_m must keep the strip on its side "
+                    f"(0 <= offset - width/2, offset + width/2 <= {length:.6g}), "
+                    f"got offset {feature.offset_m}, width {feature.width_m}"
+                )
+            if feature.z_max_m > height + 1e-9:
+                raise ValueError(
+                    f"{f}.z_max_m must not exceed the obstacle's height ({height}), "
+                    f"got {feature.z_max_m}"
+                )
+        object.__setattr__(self, "detail", detail)
+        object.__setattr__(
+            self,
+            "detail_parts",
+            tuple(
+                BoxPart(
+                    footprint=feature.footprint(fp),
+                    z_min_m=feature.z_min_m,
+                    z_max_m=feature.z_max_m,
+                    color=feature.color,
+                )
+                for feature in detail
+            ),
+        )
+
+    @property
+    def drawn_parts(self) -> tuple[BoxPart, ...]:
+        """Every prism that draws it: :attr:`parts`, then :attr:`detail_parts`."""
+        return self.parts + self.detail_parts if self.detail_parts else self.parts
 
     @property
     def polygon(self) -> Polygon:
