@@ -12,6 +12,7 @@ and the band from the lowest to the highest seed.
 from __future__ import annotations
 
 import csv
+import itertools
 import pathlib
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -96,6 +97,21 @@ def _rolling_success(curve_csv: pathlib.Path, window: int) -> tuple[np.ndarray, 
     return t, (cum[idx] - cum[start]) / (idx - start)
 
 
+def _phase_starts(curve_csv: pathlib.Path) -> list[tuple[float, str]]:
+    """Where each phase of an imitation run's ``curve.csv`` begins (0, then the last episode
+    before it ends, env steps) and its label (``beta``, the teacher's share of the steps); empty
+    for a run without phases (PPO)."""
+    with curve_csv.open() as fh:
+        rows = list(csv.DictReader(fh))
+    if not rows or "phase" not in rows[0]:
+        return []
+    starts = [(0.0, f" teacher {float(rows[0]['beta']):.0%}")]
+    for before, row in itertools.pairwise(rows):
+        if row["phase"] != before["phase"]:
+            starts.append((float(before["timesteps"]), f" teacher {float(row['beta']):.0%}"))
+    return starts
+
+
 def plot_seed_curves(
     curve_csvs: Mapping[str, pathlib.Path],
     out_png: pathlib.Path,
@@ -123,6 +139,7 @@ def plot_seed_curves(
     curves = {k: _rolling_success(pathlib.Path(p), window) for k, p in curve_csvs.items()}
     curves = {k: c for k, c in curves.items() if c[0].size}
     fig, ax = plt.subplots(figsize=(6.5, 3.8))
+    phases: list[tuple[float, str]] = []
     if curves:
         end = min(float(t[-1]) for t, _ in curves.values())
         grid = np.linspace(0.0, end, 200)
@@ -130,12 +147,18 @@ def plot_seed_curves(
         ax.fill_between(grid, stack.min(axis=0), stack.max(axis=0), alpha=0.25, label="seeds")
         ax.plot(grid, stack.mean(axis=0), color="tab:blue", label="mean of seeds")
         for label, (t, s) in curves.items():
-            ax.plot(t, s, lw=0.6, alpha=0.7, label=f"seed {label}")
+            name = label if label.startswith("seed") else f"seed {label}"
+            ax.plot(t, s, lw=0.6, alpha=0.7, label=name)
+        phases = _phase_starts(pathlib.Path(next(iter(curve_csvs.values()))))
+        for at, text in phases:
+            ax.axvline(at, color="grey", lw=0.6, ls=":")
+            ax.text(at, 0.02, text, fontsize=7, color="dimgrey", ha="left", va="bottom")
     ax.set_xlabel("env steps")
     ax.set_ylabel(f"success, last {window} episodes")
     ax.set_ylim(-0.05, 1.05)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="lower right")
+    # the phases' labels run along the bottom
+    ax.legend(fontsize=7, loc="center right" if phases else "lower right")
     ax.set_title(title)
     fig.tight_layout()
     out_png.parent.mkdir(parents=True, exist_ok=True)

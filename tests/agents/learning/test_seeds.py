@@ -9,7 +9,13 @@ import pathlib
 import pytest
 
 from agents.evaluation.suite import EpisodeResult
-from agents.learning.seeds import _rolling_success, plot_seed_curves, seed_summary, seed_table
+from agents.learning.seeds import (
+    _phase_starts,
+    _rolling_success,
+    plot_seed_curves,
+    seed_summary,
+    seed_table,
+)
 from tests.agents.episodes import episode
 
 
@@ -62,3 +68,21 @@ def test_rolling_success_and_the_band_plot(tmp_path: pathlib.Path) -> None:
     other = _curve(tmp_path / "b.csv", [1, 1, 1])
     png = plot_seed_curves({"0": path, "1": other}, tmp_path / "band.png", window=2)
     assert png.stat().st_size > 1000 and not math.isnan(float(s.sum()))
+
+
+def test_imitation_phases_are_marked_where_they_begin(tmp_path: pathlib.Path) -> None:
+    path = tmp_path / "imitation.csv"
+    rows = [(120, "demonstrations", 1.0), (300, "demonstrations", 1.0), (410, "dagger 1", 0.5)]
+    rows += [(650, "dagger 2", 0.0)]
+    with path.open("w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(["timesteps", "length", "success", "phase", "beta"])
+        writer.writerows([(t, 10, 1, phase, beta) for t, phase, beta in rows])
+    assert _phase_starts(path) == [
+        (0.0, " teacher 100%"),
+        (300.0, " teacher 50%"),
+        (410.0, " teacher 0%"),
+    ]
+    assert _phase_starts(_curve(tmp_path / "ppo.csv", [1, 0])) == []
+    png = plot_seed_curves({"seed1": path}, tmp_path / "phases.png")
+    assert png.stat().st_size > 1000
