@@ -8,9 +8,12 @@
 planner`` (:mod:`agents.learning.imitation`), surrogate perception by default, ``--n-envs`` env
 processes (2): first the recipe's own vector env alone, stepped with the teacher's actions for
 ``--timesteps`` steps (``raw_env_steps_per_s``: the envs, the teacher's labels and the
-observation, no learner), then the recipe itself on the same number of steps with its
-proportions (40 % demonstrations, three DAgger rounds of 20 %, the same epochs; set-up, every
-fit and the saving included: ``loop_steps_per_s``); ``loop_over_raw_env`` is their ratio.
+observation, no learner), then the recipe itself scaled to the same number of steps (the
+demonstrations' and rounds' shares of :class:`~agents.learning.imitation.ImitationConfig`'s
+defaults, 40 % and four rounds of 15 %, with the same epochs and betas; set-up, every fit and the
+saving included: ``loop_steps_per_s``); ``loop_over_raw_env`` is their ratio. Then one epoch of
+the recipe's fit on 4,096 random observations in channels-last layout (as the recipe fits) and in
+NCHW, alternately, twice (``fit_channels_last_over_nchw``: the better of each, their ratio).
 
 ``--learner backends`` compares RLlib PPO on 1 and 2 env runners against stable-baselines3 on 1 and
 2 envs (docs/rllib.md). All four runs happen in this one process, one after the other, on the env
@@ -29,6 +32,7 @@ load average before and after (the machine is shared: other processes' load show
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import pathlib
 import tempfile
@@ -98,12 +102,14 @@ def measure_imitation(args: argparse.Namespace, work: pathlib.Path) -> dict[str,
     import numpy as np
 
     steps = int(args.timesteps)
+    recipe = ImitationConfig(out_dir=work / "imitation")
+    share = steps / (recipe.demo_steps + recipe.rounds * recipe.round_steps)
     cfg = ImitationConfig(
         out_dir=work / "imitation",
         n_envs=args.n_envs,
-        demo_steps=max(1, round(0.4 * steps)),
-        rounds=3,
-        round_steps=max(1, round(0.2 * steps)),
+        demo_steps=max(1, round(share * recipe.demo_steps)),
+        rounds=recipe.rounds,
+        round_steps=max(1, round(share * recipe.round_steps)),
         env_kwargs={"perception": args.perception, "diagnostics": False},
         progress=False,
     )
@@ -123,6 +129,7 @@ def measure_imitation(args: argparse.Namespace, work: pathlib.Path) -> dict[str,
     loop = result.steps / (result.minutes * 60.0)
     print(f"raw env: {raw:.1f} steps/s; imitation loop: {loop:.1f} steps/s", flush=True)
     return {
+        **measure_fit(cfg),
         "n_envs": float(cfg.n_envs),
         "raw_env_steps": float(taken),
         "raw_env_steps_per_s": raw,
@@ -130,6 +137,39 @@ def measure_imitation(args: argparse.Namespace, work: pathlib.Path) -> dict[str,
         "loop_wall_s": result.minutes * 60.0,
         "loop_steps_per_s": loop,
         "loop_over_raw_env": loop / raw,
+    }
+
+
+def measure_fit(cfg: ImitationConfig, samples: int = 4096, repeats: int = 2) -> dict[str, float]:
+    """Samples per second of one epoch of the recipe's fit on ``samples`` random observations,
+    channels-last (as the recipe fits) and NCHW, alternately ``repeats`` times; the best of each."""
+    import numpy as np
+    import torch
+
+    from agents.learning.egomap import CHANNELS, STATE_FEATURES
+    from agents.learning.imitation import _Dataset, _fit, _new_bundle
+
+    torch.set_num_threads(cfg.torch_threads)
+    rng = np.random.default_rng(0)
+    s = cfg.egomap.size_px
+    data = _Dataset()
+    data.add(
+        rng.integers(0, 256, size=(samples, len(CHANNELS), s, s), dtype=np.uint8),
+        rng.uniform(-1.0, 1.0, size=(samples, len(STATE_FEATURES))).astype(np.float32),
+        rng.uniform(-1.0, 1.0, size=(samples, 3)).astype(np.float32),
+    )
+    one_epoch = dataclasses.replace(cfg, epochs=1)
+    best = {True: 0.0, False: 0.0}
+    for _ in range(repeats):
+        for channels_last in (True, False):
+            bundle = _new_bundle(cfg.egomap, cfg.bins, cfg.width, {})
+            t0 = time.perf_counter()
+            _fit(bundle, data, one_epoch, rng, channels_last=channels_last)
+            best[channels_last] = max(best[channels_last], samples / (time.perf_counter() - t0))
+    return {
+        "fit_samples_per_s_channels_last": best[True],
+        "fit_samples_per_s_nchw": best[False],
+        "fit_channels_last_over_nchw": best[True] / best[False],
     }
 
 
@@ -144,6 +184,12 @@ def markdown_imitation(figures: dict[str, float]) -> str:
             f"| the imitation loop (collect + fit) | {figures['n_envs']:.0f} "
             f"| {figures['loop_steps']:.0f} | {figures['loop_steps_per_s']:.1f} |",
             f"| ratio | | | {figures['loop_over_raw_env']:.2f} |",
+            "",
+            "| the recipe's fit, one epoch of 4,096 samples | samples/s |",
+            "| --- | ---: |",
+            f"| channels-last (the recipe's) | {figures['fit_samples_per_s_channels_last']:.0f} |",
+            f"| NCHW | {figures['fit_samples_per_s_nchw']:.0f} |",
+            f"| ratio | {figures['fit_channels_last_over_nchw']:.2f} |",
         ]
     )
 

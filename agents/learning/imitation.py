@@ -459,16 +459,27 @@ def _bin_loss(logits: Any, targets: Any) -> Any:
 
 
 def _fit(
-    bundle: PolicyBundle, data: _Dataset, cfg: ImitationConfig, rng: np.random.Generator
+    bundle: PolicyBundle,
+    data: _Dataset,
+    cfg: ImitationConfig,
+    rng: np.random.Generator,
+    *,
+    channels_last: bool = True,
 ) -> dict[str, float]:
     """``cfg.epochs`` passes of Adam over the samples not held out; returns ``loss`` (the mean
-    of the last pass) and :func:`_validate`'s figures on the held-out ones."""
+    of the last pass) and :func:`_validate`'s figures on the held-out ones. ``channels_last``
+    False fits in NCHW (the same sums, slower; ``scripts/bench_training.py`` compares them)."""
     import torch
 
     maps, states, actions, held_out = data.arrays()
     targets = encode_bins(actions, cfg.bins)
     net = bundle.net
     net.train()
+    # Channels-last (NHWC) weights and batches: oneDNN's convolutions, most of a fit's time,
+    # run faster on them on this CPU than on NCHW (the same sums; docs/training.md). The net
+    # goes back to NCHW after the fit, so acting is unchanged.
+    layout = torch.channels_last if channels_last else torch.contiguous_format
+    net.to(memory_format=layout)
     optimiser = torch.optim.Adam(net.parameters(), lr=cfg.learning_rate)
     train = np.flatnonzero(~held_out)
     last = math.nan
@@ -477,13 +488,15 @@ def _fit(
         total = 0.0
         for start in range(0, order.size, cfg.batch_size):
             idx = np.sort(order[start : start + cfg.batch_size])
-            logits = net(torch.from_numpy(maps[idx]), torch.from_numpy(states[idx]))
+            image = torch.from_numpy(maps[idx]).contiguous(memory_format=layout)
+            logits = net(image, torch.from_numpy(states[idx]))
             loss = _bin_loss(logits, torch.from_numpy(targets[idx]))
             optimiser.zero_grad()
             loss.backward()
             optimiser.step()
             total += float(loss.detach()) * idx.size
         last = total / max(order.size, 1)
+    net.to(memory_format=torch.contiguous_format)
     net.eval()
     held = np.flatnonzero(held_out)
     return {"loss": last, **_validate(bundle, maps[held], states[held], actions[held])}

@@ -17,6 +17,10 @@ from agents.learning.egomap import EgoMapConfig
 from agents.learning.imitation import (
     ImitationConfig,
     PolicyBundle,
+    _bin_loss,
+    _Dataset,
+    _fit,
+    _new_bundle,
     _validate,
     decode_bins,
     encode_bins,
@@ -153,3 +157,41 @@ def test_validation_scores_a_student_against_the_teachers_nearest_bins() -> None
     assert scored["val_loss"] > right["val_loss"]
     empty = _validate(bundle, maps[:0], nearest[:0].astype(np.float32), actions[:0])
     assert np.isnan(empty["val_loss"])
+
+
+def test_fits_run_channels_last_with_nchws_sums_and_leave_the_net_nchw(tmp_path) -> None:
+    import copy
+
+    import torch
+
+    from agents.learning.egomap import CHANNELS, STATE_FEATURES
+
+    rng = np.random.default_rng(5)
+    n, size = 48, 16
+    egomap = EgoMapConfig(size_px=size)
+    maps = rng.integers(0, 256, size=(n, len(CHANNELS), size, size), dtype=np.uint8)
+    states = rng.uniform(-1, 1, size=(n, len(STATE_FEATURES))).astype(np.float32)
+    actions = rng.uniform(-1, 1, size=(n, 3)).astype(np.float32)
+    torch.manual_seed(0)
+    nchw = _new_bundle(egomap, 11, 32, {}).net
+    nhwc = copy.deepcopy(nchw).to(memory_format=torch.channels_last)
+    targets = torch.from_numpy(encode_bins(actions, 11))
+    grads = []
+    for net, image in (
+        (nchw, torch.from_numpy(maps)),
+        (nhwc, torch.from_numpy(maps).contiguous(memory_format=torch.channels_last)),
+    ):
+        loss = _bin_loss(net(image, torch.from_numpy(states)), targets)
+        loss.backward()
+        grads.append([p.grad.clone() for p in net.parameters()])
+    for a, b in zip(*grads, strict=True):
+        torch.testing.assert_close(a, b, rtol=1e-4, atol=1e-5)
+
+    bundle = _new_bundle(egomap, 11, 32, {})
+    data = _Dataset(validation_share=0.25, seed=1)
+    data.add(maps, states, actions)
+    cfg = ImitationConfig(out_dir=tmp_path, egomap=egomap, epochs=2, batch_size=16, width=32)
+    fitted = _fit(bundle, data, cfg, np.random.default_rng(0))
+    assert np.isfinite(fitted["loss"]) and np.isfinite(fitted["val_loss"])
+    assert all(p.is_contiguous() for p in bundle.net.parameters())
+    assert not bundle.net.training
