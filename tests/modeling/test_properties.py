@@ -15,6 +15,7 @@ from modeling.model.build import build_model
 from modeling.model.gaps import gap_passable_probability
 from modeling.model.records import Situation
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
+from tests.modeling.records import situation_record
 
 W = 0.5
 
@@ -179,22 +180,6 @@ def test_obstacles_partition_the_kept_items(obs: FloorObservation) -> None:
             assert 0.0 <= reg.p_passable <= 1.0
 
 
-def _situation_record(s: Situation) -> list[object]:
-    """Every field of a situation's obstacles, critical regions and passages, arrays as bytes."""
-
-    def fields(record: object) -> tuple[object, ...]:
-        values = (getattr(record, f) for f in record.__dataclass_fields__)  # type: ignore[attr-defined]
-        return tuple(v.tobytes() if isinstance(v, np.ndarray) else v for v in values)
-
-    return [
-        s.probability,
-        s.choice,
-        [fields(o) for o in s.obstacles],
-        [fields(r) for r in s.critical_regions],
-        [fields(p) for p in s.passages],
-    ]
-
-
 @SETTINGS
 @given(observations(), st.integers(2, 12))
 def test_situations_assembled_together_equal_each_assembled_alone(
@@ -217,7 +202,7 @@ def test_situations_assembled_together_equal_each_assembled_alone(
         for a, p, c in zip(actives, probabilities, choices, strict=True)
     ]
     alone.sort(key=lambda s: -s.probability)  # as enumerate_situations orders them
-    assert [_situation_record(s) for s in together] == [_situation_record(s) for s in alone]
+    assert [situation_record(s) for s in together] == [situation_record(s) for s in alone]
 
 
 @SETTINGS

@@ -131,6 +131,14 @@ def _number(value: Any, field: str) -> float:
     return x
 
 
+def _heights(z_min_m: object, z_max_m: object) -> tuple[float, float]:
+    """``(z_min_m, z_max_m)`` as floats with ``0 <= z_min_m < z_max_m``, else a ``ValueError``."""
+    z0, z1 = _number(z_min_m, "z_min_m"), _number(z_max_m, "z_max_m")
+    if z0 < 0 or z1 <= z0:
+        raise ValueError(f"z_min_m/z_max_m must satisfy 0 <= z_min_m < z_max_m, got {z0}, {z1}")
+    return z0, z1
+
+
 def _vector(value: Any, field: str, n: int) -> tuple[float, ...]:
     if not isinstance(value, Sequence | np.ndarray) or isinstance(value, str) or len(value) != n:
         raise _err(field, f"must be a list of {n} numbers, got {value!r}")
@@ -206,9 +214,7 @@ class FaceFeature:
         if width <= 0:
             raise ValueError(f"width_m must be positive, got {self.width_m!r}")
         object.__setattr__(self, "width_m", width)
-        z0, z1 = _number(self.z_min_m, "z_min_m"), _number(self.z_max_m, "z_max_m")
-        if z0 < 0 or z1 <= z0:
-            raise ValueError(f"z_min_m/z_max_m must satisfy 0 <= z_min_m < z_max_m, got {z0}, {z1}")
+        z0, z1 = _heights(self.z_min_m, self.z_max_m)
         object.__setattr__(self, "z_min_m", z0)
         object.__setattr__(self, "z_max_m", z1)
         object.__setattr__(self, "color", _color(self.color, "color"))
@@ -255,9 +261,7 @@ class BoxPart:
     def __post_init__(self) -> None:
         fp = _polygon_array(self.footprint, "footprint")
         object.__setattr__(self, "footprint", fp)
-        z0, z1 = _number(self.z_min_m, "z_min_m"), _number(self.z_max_m, "z_max_m")
-        if z0 < 0 or z1 <= z0:
-            raise ValueError(f"z_min_m/z_max_m must satisfy 0 <= z_min_m < z_max_m, got {z0}, {z1}")
+        z0, z1 = _heights(self.z_min_m, self.z_max_m)
         object.__setattr__(self, "z_min_m", z0)
         object.__setattr__(self, "z_max_m", z1)
         object.__setattr__(self, "color", _color(self.color, "color"))

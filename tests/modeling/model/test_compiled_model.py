@@ -23,6 +23,7 @@ from modeling.model.obstacles import (
 from modeling.model.partitions import situation_partitions, situation_partitions_reference
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
 from tests.modeling.model.test_figures import seg
+from tests.modeling.records import situation_record
 
 
 def _random_sets(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -214,21 +215,10 @@ def _recorded_observations() -> list[FloorObservation]:
 
 def _model_record(model: EnvironmentModel) -> list[object]:
     """Every field of every situation's obstacles, regions and passages, arrays as bytes."""
-
-    def fields(record: object) -> tuple[object, ...]:
-        values = (getattr(record, f) for f in record.__dataclass_fields__)  # type: ignore[attr-defined]
-        return tuple(v.tobytes() if isinstance(v, np.ndarray) else v for v in values)
-
-    return [
-        [
-            s.probability,
-            s.choice,
-            [fields(o) for o in s.obstacles],
-            [fields(r) for r in s.critical_regions],
-            [fields(p) for p in s.passages],
-        ]
-        for s in model.situations
-    ] + [model.residual_probability, [r.tobytes() for r in model.occluded]]
+    return [situation_record(s) for s in model.situations] + [
+        model.residual_probability,
+        [r.tobytes() for r in model.occluded],
+    ]
 
 
 @pytest.mark.parametrize("case", range(9))
