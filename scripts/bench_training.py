@@ -32,7 +32,6 @@ load average before and after (the machine is shared: other processes' load show
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import os
 import pathlib
 import tempfile
@@ -43,7 +42,12 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 from _figures import print_figures, write_figures
 
 import stereo_nav_env  # noqa: F401  (registers the ids)
-from agents.learning.imitation import ImitationConfig, train_imitation, training_vector_env
+from agents.learning.imitation import (
+    ImitationConfig,
+    fit_speed,
+    train_imitation,
+    training_vector_env,
+)
 from agents.learning.rllib.backend import RLlibOptions, train_rllib
 from agents.learning.training import TrainConfig, train_ppo
 
@@ -129,7 +133,7 @@ def measure_imitation(args: argparse.Namespace, work: pathlib.Path) -> dict[str,
     loop = result.steps / (result.minutes * 60.0)
     print(f"raw env: {raw:.1f} steps/s; imitation loop: {loop:.1f} steps/s", flush=True)
     return {
-        **measure_fit(cfg),
+        **fit_speed(cfg),
         "n_envs": float(cfg.n_envs),
         "raw_env_steps": float(taken),
         "raw_env_steps_per_s": raw,
@@ -137,39 +141,6 @@ def measure_imitation(args: argparse.Namespace, work: pathlib.Path) -> dict[str,
         "loop_wall_s": result.minutes * 60.0,
         "loop_steps_per_s": loop,
         "loop_over_raw_env": loop / raw,
-    }
-
-
-def measure_fit(cfg: ImitationConfig, samples: int = 4096, repeats: int = 2) -> dict[str, float]:
-    """Samples per second of one epoch of the recipe's fit on ``samples`` random observations,
-    channels-last (as the recipe fits) and NCHW, alternately ``repeats`` times; the best of each."""
-    import numpy as np
-    import torch
-
-    from agents.learning.egomap import CHANNELS, STATE_FEATURES
-    from agents.learning.imitation import _Dataset, _fit, _new_bundle
-
-    torch.set_num_threads(cfg.torch_threads)
-    rng = np.random.default_rng(0)
-    s = cfg.egomap.size_px
-    data = _Dataset()
-    data.add(
-        rng.integers(0, 256, size=(samples, len(CHANNELS), s, s), dtype=np.uint8),
-        rng.uniform(-1.0, 1.0, size=(samples, len(STATE_FEATURES))).astype(np.float32),
-        rng.uniform(-1.0, 1.0, size=(samples, 3)).astype(np.float32),
-    )
-    one_epoch = dataclasses.replace(cfg, epochs=1)
-    best = {True: 0.0, False: 0.0}
-    for _ in range(repeats):
-        for channels_last in (True, False):
-            bundle = _new_bundle(cfg.egomap, cfg.bins, cfg.width, {})
-            t0 = time.perf_counter()
-            _fit(bundle, data, one_epoch, rng, channels_last=channels_last)
-            best[channels_last] = max(best[channels_last], samples / (time.perf_counter() - t0))
-    return {
-        "fit_samples_per_s_channels_last": best[True],
-        "fit_samples_per_s_nchw": best[False],
-        "fit_channels_last_over_nchw": best[True] / best[False],
     }
 
 

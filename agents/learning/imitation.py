@@ -38,6 +38,7 @@ torch is imported inside the functions that need it.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import math
 import pathlib
@@ -62,6 +63,7 @@ __all__ = [
     "PolicyBundle",
     "decode_bins",
     "encode_bins",
+    "fit_speed",
     "load_policy",
     "train_imitation",
     "training_vector_env",
@@ -500,6 +502,37 @@ def _fit(
     net.eval()
     held = np.flatnonzero(held_out)
     return {"loss": last, **_validate(bundle, maps[held], states[held], actions[held])}
+
+
+def fit_speed(cfg: ImitationConfig, samples: int = 4096, repeats: int = 2) -> dict[str, float]:
+    """Samples per second of one epoch of the recipe's fit (``cfg``'s network, batch size and
+    threads) on ``samples`` random observations, channels-last (as :func:`train_imitation`
+    fits) and NCHW, alternately ``repeats`` times: the best of each, and their ratio
+    (``fit_channels_last_over_nchw``). Printed by ``scripts/bench_training.py``."""
+    import torch
+
+    torch.set_num_threads(cfg.torch_threads)
+    rng = np.random.default_rng(0)
+    s = cfg.egomap.size_px
+    data = _Dataset()
+    data.add(
+        rng.integers(0, 256, size=(samples, len(CHANNELS), s, s), dtype=np.uint8),
+        rng.uniform(-1.0, 1.0, size=(samples, len(STATE_FEATURES))).astype(np.float32),
+        rng.uniform(-1.0, 1.0, size=(samples, 3)).astype(np.float32),
+    )
+    one_epoch = dataclasses.replace(cfg, epochs=1)
+    best = {True: 0.0, False: 0.0}
+    for _ in range(repeats):
+        for channels_last in (True, False):
+            bundle = _new_bundle(cfg.egomap, cfg.bins, cfg.width, {})
+            t0 = time.perf_counter()
+            _fit(bundle, data, one_epoch, rng, channels_last=channels_last)
+            best[channels_last] = max(best[channels_last], samples / (time.perf_counter() - t0))
+    return {
+        "fit_samples_per_s_channels_last": best[True],
+        "fit_samples_per_s_nchw": best[False],
+        "fit_channels_last_over_nchw": best[True] / best[False],
+    }
 
 
 def _validate(

@@ -24,6 +24,7 @@ from agents.learning.imitation import (
     _validate,
     decode_bins,
     encode_bins,
+    fit_speed,
     load_policy,
     train_imitation,
 )
@@ -195,3 +196,9 @@ def test_fits_run_channels_last_with_nchws_sums_and_leave_the_net_nchw(tmp_path)
     assert np.isfinite(fitted["loss"]) and np.isfinite(fitted["val_loss"])
     assert all(p.is_contiguous() for p in bundle.net.parameters())
     assert not bundle.net.training
+
+    speed = fit_speed(cfg, samples=32, repeats=1)
+    assert speed["fit_samples_per_s_channels_last"] > 0 and speed["fit_samples_per_s_nchw"] > 0
+    assert speed["fit_channels_last_over_nchw"] == pytest.approx(
+        speed["fit_samples_per_s_channels_last"] / speed["fit_samples_per_s_nchw"]
+    )
