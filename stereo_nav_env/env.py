@@ -24,6 +24,7 @@ from gymnasium import spaces
 from numpy.typing import NDArray
 
 from modeling.memory.fusion import ModelMemory
+from modeling.model.build import ModelCache
 from modeling.model.records import EnvironmentModel
 from modeling.stereo.rig import HeadPose, StereoRig
 from modeling.types import UInt8Image
@@ -268,6 +269,9 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         """The model of :attr:`memory` (``info["memory_model"]``)."""
         self.memory_options = memory_options(self.config)
         """How views and contacts are fused (:class:`~modeling.memory.fusion.MemoryOptions`)."""
+        self._memory_cache = ModelCache()
+        """The last memory model's intermediate results (the next is often made of the same
+        remembered segments: :class:`~modeling.model.build.ModelCache`)."""
         self.perception: Perception = make_perception(self.config)
         """What turns each view into a model (``config.perception``; it owns the renderer)."""
         self.last_timings_ms: dict[str, float] = {}
@@ -366,7 +370,9 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         assert self.model is not None and self.memory is not None
         self.memory = fuse_view(self.memory, self.model, contacts, self.config, self.memory_options)
         watch.lap("fusion")
-        self.memory_model = ComparableModel.of(memory_model_of(self.memory, self.config))
+        self.memory_model = ComparableModel.of(
+            memory_model_of(self.memory, self.config, cache=self._memory_cache)
+        )
         watch.lap("memory_model")
 
     def _info(self, watch: Stopwatch, *, geodesic_m: float) -> dict[str, Any]:

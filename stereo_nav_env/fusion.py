@@ -13,6 +13,7 @@ from collections.abc import Sequence
 
 from modeling.memory.fusion import ModelMemory, add_contact, build_memory_model, fuse
 from modeling.memory.options import MemoryOptions
+from modeling.model.build import ModelCache
 from modeling.model.records import EnvironmentModel
 from modeling.stereo.segments import SegmentOptions
 from stereo_nav_env.config import EnvConfig
@@ -58,11 +59,16 @@ def fuse_view(
     return memory
 
 
-def memory_model_of(memory: ModelMemory, config: EnvConfig) -> EnvironmentModel:
-    """The fused model of ``memory`` for the env's robot width, ``eps`` and situation limit."""
+def memory_model_of(
+    memory: ModelMemory, config: EnvConfig, *, cache: ModelCache | None = None
+) -> EnvironmentModel:
+    """The fused model of ``memory`` for the env's robot width, ``eps`` and situation limit
+    (``cache``: the last call's intermediate results, :class:`~modeling.model.build.ModelCache`;
+    the same model with or without it)."""
     return build_memory_model(
         memory,
         config.world.robot_width_m,
         eps=config.eps,
         max_situations=config.model_max_situations,
+        cache=cache,
     )

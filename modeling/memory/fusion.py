@@ -115,7 +115,7 @@ from modeling.memory.association import (
 )
 from modeling.memory.options import MemoryOptions
 from modeling.memory.visibility import Visibility, flat_in_image, visibility
-from modeling.model.build import ModelOptions, build_model
+from modeling.model.build import ModelCache, ModelOptions, build_model
 from modeling.model.records import EnvironmentModel
 from modeling.observation import AmbiguousSegment, FloorObservation, FloorSegment
 from modeling.types import FloatArray
@@ -578,6 +578,8 @@ def build_memory_model(
     memory: ModelMemory,
     robot_width_m: float,
     options: ModelOptions | None = None,
+    *,
+    cache: ModelCache | None = None,
     **overrides: Any,
 ) -> EnvironmentModel:
     """The fused environment model: :func:`~modeling.model.build.build_model` on
@@ -588,10 +590,13 @@ def build_memory_model(
         memory: The memory.
         robot_width_m: Robot width (diameter), metres, > 0.
         options: The :class:`~modeling.model.build.ModelOptions` (default: their defaults).
+        cache: A :class:`~modeling.model.build.ModelCache` kept from one call to the next (the
+            memory's model is built after every view, and often from the same remembered
+            segments): the same model, with less work where they did not change.
         **overrides: Fields of :class:`~modeling.model.build.ModelOptions` to replace.
     """
     _check_type(memory, "memory", ModelMemory)
-    return build_model(memory.observation(), robot_width_m, options, **overrides)
+    return build_model(memory.observation(), robot_width_m, options, cache=cache, **overrides)
 
 
 def _check_type(value: Any, name: str, cls: type) -> None:

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from modeling.model.gaps import Relation
-from modeling.model.relations import SegmentRelations, segment_relations
+from modeling.model.relations import EarlierRelations, SegmentRelations, segment_relations
 from modeling.observation import FloorObservation
 from modeling.types import FloatArray
 
@@ -126,9 +126,14 @@ def length_3d(items: Items) -> FloatArray:
     return out
 
 
-def item_relations(items: Items, robot_width_m: float, eps: float) -> SegmentRelations:
-    """Relations among all items, never between candidates of one ambiguous segment."""
-    return segment_relations(items.ends, items.covs, robot_width_m, eps, group=items.ambiguous)
+def item_relations(
+    items: Items, robot_width_m: float, eps: float, earlier: EarlierRelations | None = None
+) -> SegmentRelations:
+    """Relations among all items, never between candidates of one ambiguous segment (``earlier``:
+    relations made before, whose rows equal pairs take again)."""
+    return segment_relations(
+        items.ends, items.covs, robot_width_m, eps, group=items.ambiguous, earlier=earlier
+    )
 
 
 def isolated_short_segments(

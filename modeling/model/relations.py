@@ -19,6 +19,11 @@ by construction: a segment is one node of the relation graph.
 
 The steps run as compiled loops (:mod:`modeling.model._kernels.gap`); each has its readable NumPy
 reference at the end of this module, which the tests compare it with.
+
+Relations made before (:class:`EarlierRelations`: the fused memory's model is made after every
+view, and most remembered segments did not change since the last) lend their rows: a pair of
+segments equal bit for bit to an earlier pair, in the same order, has the same row, so only the
+other rows are computed.
 """
 
 from __future__ import annotations
@@ -40,14 +45,17 @@ from modeling.model.gaps import (
 from modeling.types import FloatArray
 
 __all__ = [
+    "EarlierRelations",
     "SegmentRelations",
     "candidate_pairs",
     "closest_points",
     "closest_points_reference",
+    "earlier_rows",
     "grown_boxes_reference",
     "near_pairs_reference",
     "prune_sigmas",
     "relation_rows_reference",
+    "relation_rows_taking_reference",
     "segment_relations",
 ]
 
@@ -106,6 +114,23 @@ class SegmentRelations:
             p_passable=self.p_passable[mask],
             kind=self.kind[mask],
         )
+
+
+@dataclass(frozen=True, slots=True)
+class EarlierRelations:
+    """Relations made before, whose rows :func:`segment_relations` may take again.
+
+    Attributes:
+        endpoints: (n, 2, 2) their segments' mean endpoints, metres.
+        cov: (n, 2, 2, 2) their endpoint covariances, m^2.
+        width_m: The robot width they were made for, metres.
+        relations: The relations.
+    """
+
+    endpoints: FloatArray
+    cov: FloatArray
+    width_m: float
+    relations: SegmentRelations
 
 
 def closest_points(
@@ -194,6 +219,7 @@ def segment_relations(
     *,
     pairs: np.ndarray | None = None,
     group: np.ndarray | None = None,
+    earlier: EarlierRelations | None = None,
 ) -> SegmentRelations:
     """Relations of nearby segment pairs: closest points, their uncertainty, ``p_passable``, kind.
 
@@ -205,6 +231,8 @@ def segment_relations(
         pairs: (p, 2) pairs to examine; default: :func:`candidate_pairs`.
         group: (n,) int, a group of each segment (-1: none): two segments of one group are not
             related (no row). Default: no groups.
+        earlier: Relations made before: the rows of pairs equal to theirs are taken from them
+            (the same rows as computed; see the module docstring).
 
     Returns:
         The :class:`SegmentRelations`, rows sorted by ``(i, j)``.
@@ -226,9 +254,12 @@ def segment_relations(
             params = PairParams(params.i[keep], params.j[keep], params.s[keep], params.t[keep])
     # Closest points, covariances, distance and p_passable of each pair: a compiled loop (its
     # reference: relation_rows_reference).
-    rows = _gap_kernel.relation_rows(
-        Segments(endpoints, cov), params, float(width_m), QUADRATURE_RULES
-    )
+    if earlier is not None and earlier.width_m == float(width_m) and len(earlier.relations):
+        rows = _rows_from_earlier(endpoints, cov, params, float(width_m), earlier)
+    else:
+        rows = _gap_kernel.relation_rows(
+            Segments(endpoints, cov), params, float(width_m), QUADRATURE_RULES
+        )
     return SegmentRelations(
         i=params.i,
         j=params.j,
@@ -240,6 +271,59 @@ def segment_relations(
         p_passable=rows.p_passable,
         kind=classify_gaps(rows.p_passable, eps),
     )
+
+
+def _rows_from_earlier(
+    endpoints: FloatArray,
+    cov: FloatArray,
+    params: PairParams,
+    width_m: float,
+    earlier: EarlierRelations,
+) -> _gap_kernel.RelationRows:
+    """The rows of the pairs ``params``: those of ``earlier`` where both segments are equal bit
+    for bit to two earlier segments, in the same order, and that pair has a row there; the
+    others computed (a compiled loop, :func:`modeling.model._kernels.gap.relation_rows_taking`;
+    its reference is :func:`relation_rows_taking_reference`)."""
+    rel = earlier.relations
+    take = earlier_rows(endpoints, cov, params, earlier)
+    return _gap_kernel.relation_rows_taking(
+        Segments(endpoints, cov),
+        params,
+        width_m,
+        QUADRATURE_RULES,
+        take,
+        _gap_kernel.RelationRows(
+            rel.point_i, rel.point_j, rel.cov_i, rel.cov_j, rel.distance_m, rel.p_passable
+        ),
+    )
+
+
+def earlier_rows(
+    endpoints: FloatArray, cov: FloatArray, params: PairParams, earlier: EarlierRelations
+) -> np.ndarray:
+    """(m,) the row of ``earlier`` of each pair of ``params`` (-1: none): a pair whose two
+    segments are equal bit for bit (endpoints and covariances) to two earlier segments, in the
+    same order, that have a row there."""
+    n_old = earlier.endpoints.shape[0]
+    index = {key: k for k, key in enumerate(_segment_keys(earlier.endpoints, earlier.cov))}
+    old = np.array([index.get(key, -1) for key in _segment_keys(endpoints, cov)], dtype=np.int64)
+    oi, oj = old[params.i], old[params.j]
+    rel = earlier.relations
+    old_code = rel.i * n_old + rel.j  # ascending: the rows are sorted by (i, j)
+    code = oi * n_old + oj
+    at = np.minimum(np.searchsorted(old_code, code), old_code.shape[0] - 1)
+    found = (oi >= 0) & (oj > oi) & (old_code[at] == code)
+    return np.where(found, at, -1)
+
+
+def _segment_keys(endpoints: FloatArray, cov: FloatArray) -> list[bytes]:
+    """Each segment's endpoints and covariances as bytes (equal keys: equal segments)."""
+    n = endpoints.shape[0]
+    both = np.ascontiguousarray(
+        np.concatenate((endpoints.reshape(n, 4), cov.reshape(n, 8)), axis=1)
+    )
+    keys: list[bytes] = both.view(np.dtype((np.void, 96))).reshape(n).tolist()
+    return keys
 
 
 # ------------------------------------------------------- readable references (paper 4.1)
@@ -323,3 +407,24 @@ def relation_rows_reference(
         [gap_passable_probability(*args, width_m) for args in zip(mi, ci, mj, cj, strict=True)]
     )
     return mi, mj, ci, cj, np.hypot(*(mj - mi).T), p.reshape(-1)
+
+
+def relation_rows_taking_reference(
+    endpoints: FloatArray,
+    cov: FloatArray,
+    pairs: PairParams,
+    width_m: float,
+    take: np.ndarray,
+    earlier: tuple[FloatArray, ...],
+) -> tuple[FloatArray, ...]:
+    """:func:`relation_rows_reference` with the rows where ``take >= 0`` copied from those rows
+    of ``earlier`` (``(point_i, point_j, cov_i, cov_j, distance_m, p_passable)``): the reference
+    of the compiled loop :func:`modeling.model._kernels.gap.relation_rows_taking`."""
+    computed = relation_rows_reference(endpoints, cov, pairs, width_m)
+    taken = take >= 0
+    out = []
+    for mine, theirs in zip(computed, earlier, strict=True):
+        rows = np.array(mine, dtype=np.float64)
+        rows[taken] = theirs[take[taken]]
+        out.append(rows)
+    return tuple(out)

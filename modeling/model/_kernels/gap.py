@@ -425,45 +425,93 @@ def near_pairs(
     return PairParams(i_out[:n_keep], j_out[:n_keep], s_out[:n_keep], t_out[:n_keep])
 
 
+@compiled_helper
+def _relation_row(
+    ends: np.ndarray,
+    cov: np.ndarray,
+    pairs: PairParams,
+    k: int,
+    width: float,
+    rules: QuadratureRules,
+    bps: np.ndarray,
+    out: RelationRows,
+) -> None:
+    """Row ``k`` of :func:`relation_rows`, written into ``out``."""
+    pi, pj, ci, cj, dist, p = out
+    a, b = pairs.i[k], pairs.j[k]
+    sa, sb = pairs.s[k], pairs.t[k]
+    ua, ub = 1.0 - sa, 1.0 - sb
+    for r in range(2):
+        pi[k, r] = ua * ends[a, 0, r] + sa * ends[a, 1, r]
+        pj[k, r] = ub * ends[b, 0, r] + sb * ends[b, 1, r]
+        for c in range(2):
+            ci[k, r, c] = ua * ua * cov[a, 0, r, c] + sa * sa * cov[a, 1, r, c]
+            cj[k, r, c] = ub * ub * cov[b, 0, r, c] + sb * sb * cov[b, 1, r, c]
+    dx = pj[k, 0] - pi[k, 0]
+    dy = pj[k, 1] - pi[k, 1]
+    dist[k] = math.hypot(dx, dy)
+    if width > 0.0:
+        gap = Gap(
+            dx, dy,
+            ci[k, 0, 0] + cj[k, 0, 0], ci[k, 0, 1] + cj[k, 0, 1],
+            ci[k, 1, 0] + cj[k, 1, 0], ci[k, 1, 1] + cj[k, 1, 1],
+            width,
+        )  # fmt: skip
+        p[k] = 1.0 - p_inside(gap, rules, bps)
+    else:
+        p[k] = 1.0
+
+
+@compiled_helper
+def _empty_rows(m: int) -> RelationRows:
+    """Uninitialised :class:`RelationRows` of ``m`` rows."""
+    return RelationRows(
+        np.empty((m, 2)), np.empty((m, 2)), np.empty((m, 2, 2)), np.empty((m, 2, 2)),
+        np.empty(m), np.empty(m),
+    )  # fmt: skip
+
+
 @compiled_on_first_call
 def relation_rows(
     segments: Segments, pairs: PairParams, width: float, rules: QuadratureRules
 ) -> RelationRows:
     """Closest points of the pairs, their covariances (interpolated from the endpoints':
     ``(1 - s)^2 C_0 + s^2 C_1``), distance and ``P(||d|| > width)`` (1 for ``width == 0``)."""
-    ends, cov = segments.ends, segments.cov
-    m = pairs.i.shape[0]
-    pi = np.empty((m, 2))
-    pj = np.empty((m, 2))
-    ci = np.empty((m, 2, 2))
-    cj = np.empty((m, 2, 2))
-    dist = np.empty(m)
-    p = np.empty(m)
+    out = _empty_rows(pairs.i.shape[0])
     bps = np.empty(7)
-    for k in range(m):
-        a, b = pairs.i[k], pairs.j[k]
-        sa, sb = pairs.s[k], pairs.t[k]
-        ua, ub = 1.0 - sa, 1.0 - sb
+    for k in range(pairs.i.shape[0]):
+        _relation_row(segments.ends, segments.cov, pairs, k, width, rules, bps, out)
+    return out
+
+
+@compiled_on_first_call
+def relation_rows_taking(
+    segments: Segments,
+    pairs: PairParams,
+    width: float,
+    rules: QuadratureRules,
+    take: np.ndarray,
+    earlier: RelationRows,
+) -> RelationRows:
+    """:func:`relation_rows`, with row ``k`` copied from row ``take[k]`` of ``earlier`` where
+    ``take[k] >= 0`` (rows made before for the same pair of segments and width) instead of
+    computed."""
+    out = _empty_rows(pairs.i.shape[0])
+    bps = np.empty(7)
+    for k in range(pairs.i.shape[0]):
+        o = take[k]
+        if o < 0:
+            _relation_row(segments.ends, segments.cov, pairs, k, width, rules, bps, out)
+            continue
         for r in range(2):
-            pi[k, r] = ua * ends[a, 0, r] + sa * ends[a, 1, r]
-            pj[k, r] = ub * ends[b, 0, r] + sb * ends[b, 1, r]
+            out.point_i[k, r] = earlier.point_i[o, r]
+            out.point_j[k, r] = earlier.point_j[o, r]
             for c in range(2):
-                ci[k, r, c] = ua * ua * cov[a, 0, r, c] + sa * sa * cov[a, 1, r, c]
-                cj[k, r, c] = ub * ub * cov[b, 0, r, c] + sb * sb * cov[b, 1, r, c]
-        dx = pj[k, 0] - pi[k, 0]
-        dy = pj[k, 1] - pi[k, 1]
-        dist[k] = math.hypot(dx, dy)
-        if width > 0.0:
-            gap = Gap(
-                dx, dy,
-                ci[k, 0, 0] + cj[k, 0, 0], ci[k, 0, 1] + cj[k, 0, 1],
-                ci[k, 1, 0] + cj[k, 1, 0], ci[k, 1, 1] + cj[k, 1, 1],
-                width,
-            )  # fmt: skip
-            p[k] = 1.0 - p_inside(gap, rules, bps)
-        else:
-            p[k] = 1.0
-    return RelationRows(pi, pj, ci, cj, dist, p)
+                out.cov_i[k, r, c] = earlier.cov_i[o, r, c]
+                out.cov_j[k, r, c] = earlier.cov_j[o, r, c]
+        out.distance[k] = earlier.distance[o]
+        out.p_passable[k] = earlier.p_passable[o]
+    return out
 
 
 @compiled_on_first_call

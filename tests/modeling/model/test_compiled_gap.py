@@ -2,7 +2,8 @@
 
 The loops are reached through their public functions where one exists (``closest_points``,
 ``passable_from_difference``, ``gap_width_moments``, ``segment_relations``); the others
-(``grown_boxes``, ``near_pairs``, ``relation_rows`` and the scalar helpers) only exist in the
+(``grown_boxes``, ``near_pairs``, ``relation_rows``, ``relation_rows_taking`` and the scalar
+helpers) only exist in the
 compiled module, the module under test here. Inputs stay small: with ``NUMBA_DISABLE_JIT=1``
 every loop runs as plain Python.
 """
@@ -33,6 +34,7 @@ from modeling.model.relations import (
     near_pairs_reference,
     prune_sigmas,
     relation_rows_reference,
+    relation_rows_taking_reference,
 )
 
 W = 0.5
@@ -112,6 +114,32 @@ def test_relation_rows_loop_equals_the_reference() -> None:
     assert np.count_nonzero((ref[5] > 0.01) & (ref[5] < 0.99)) >= 2
     zero = kernel.relation_rows(kernel.Segments(ends, cov), pairs, 0.0, QUADRATURE_RULES)
     assert np.all(zero.p_passable == 1.0)
+
+
+def test_relation_rows_taking_loop_equals_the_reference() -> None:
+    """Rows taken from earlier rows are copied bit for bit; the others are relation_rows'."""
+    rng = np.random.default_rng(4)
+    ends, cov = _segments(rng, 12)
+    k = prune_sigmas(0.05)
+    sigma, box = kernel.grown_boxes(kernel.Segments(ends, cov), 0.5 * W, k)
+    pairs = kernel.near_pairs(ends, sigma, _hits(box), W, k)
+    m = pairs.i.shape[0]
+    earlier = tuple(rng.normal(size=a.shape) for a in relation_rows_reference(ends, cov, pairs, W))
+    take = np.where(rng.random(m) < 0.5, rng.integers(0, m, m), -1)
+    rows = kernel.RelationRows(*earlier)
+    got = kernel.relation_rows_taking(
+        kernel.Segments(ends, cov), pairs, W, QUADRATURE_RULES, take, rows
+    )
+    ref = relation_rows_taking_reference(ends, cov, pairs, W, take, earlier)
+    for a, b in zip(got[:5], ref[:5], strict=True):
+        assert np.array_equal(a, b)
+    np.testing.assert_allclose(got.p_passable, ref[5], rtol=0, atol=1e-4)
+    taken = take >= 0
+    assert np.array_equal(got.p_passable[taken], earlier[5][take[taken]])
+    plain = kernel.relation_rows(kernel.Segments(ends, cov), pairs, W, QUADRATURE_RULES)
+    for a, b in zip(got, plain, strict=True):  # the computed rows: relation_rows' bit for bit
+        assert np.array_equal(a[~taken], b[~taken])
+    assert 0 < np.count_nonzero(taken) < m
 
 
 def _gaps(rng: np.random.Generator, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from modeling.model.gaps import Relation, gap_passable_probability
 from modeling.model.relations import (
+    EarlierRelations,
+    _pairs_and_params,
     candidate_pairs,
     closest_points_reference,
+    earlier_rows,
     prune_sigmas,
     segment_relations,
 )
@@ -136,3 +141,29 @@ def test_a_zero_width_robot_passes_everywhere() -> None:
     ends, cov = _layout(20, seed=4)
     rel = segment_relations(ends, cov, 0.0, EPS)
     assert len(rel) > 0 and np.all(rel.p_passable == 1.0) and np.all(rel.kind == Relation.PASSABLE)
+
+
+def test_relations_taking_earlier_rows_equal_those_computed() -> None:
+    """Rows taken from earlier relations (segments unchanged, moved, reordered, some changed,
+    added or dropped) equal the rows computed, bit for bit."""
+    rng = np.random.default_rng(11)
+    n = 40
+    ends = rng.uniform(0.0, 5.0, (n, 2, 2))
+    cov = np.tile(np.eye(2) * 0.01, (n, 2, 1, 1)) * rng.uniform(0.2, 3.0, (n, 1, 1, 1))
+    group = np.where(rng.random(n) < 0.3, rng.integers(0, 4, n), -1)
+    first = segment_relations(ends, cov, W, EPS, group=group)
+    # The next call: some segments changed, the rest shuffled, a few new ones, a few dropped.
+    keep = rng.permutation(n)[: n - 4]
+    ends2, cov2, group2 = ends[keep].copy(), cov[keep].copy(), group[keep].copy()
+    ends2[:6] += rng.normal(scale=0.05, size=(6, 2, 2))
+    ends2 = np.concatenate((ends2, rng.uniform(0.0, 5.0, (3, 2, 2))))
+    cov2 = np.concatenate((cov2, np.tile(np.eye(2) * 0.01, (3, 2, 1, 1))))
+    group2 = np.concatenate((group2, [-1, -1, 0]))
+    earlier = EarlierRelations(ends, cov, W, first)
+    for width in (W, W + 0.1):  # another width: nothing taken
+        got = segment_relations(ends2, cov2, width, EPS, group=group2, earlier=earlier)
+        want = segment_relations(ends2, cov2, width, EPS, group=group2)
+        for f in dataclasses.fields(want):
+            assert np.array_equal(getattr(got, f.name), getattr(want, f.name)), f.name
+    taken = earlier_rows(ends2, cov2, _pairs_and_params(ends2, cov2, W, EPS), earlier)
+    assert 0 < np.count_nonzero(taken >= 0) < taken.shape[0]
