@@ -51,6 +51,11 @@ class NavigatorConfig:
         forget_steps: When the robot has come no nearer to the goal (by 0.3 m) for this many
             steps, it forgets what it saw and its older bumps (a false obstacle may trap it).
         keep_bumps_steps: Bumps younger than this survive such forgetting.
+        progress_reset_m: A re-plan whose route's expected cost exceeds the last plan's by more
+            than this (a way found blocked, a detour begun) restarts that watch, so that a
+            detour leading away from the goal is not taken for lost progress and the blockage
+            is not forgotten half-way round it (0: never; ``docs/evaluation.md``, "Why the
+            planner stalls", has the figures).
         backoff_steps: Steps of moving away after a bump (reversing, or forwards after a bump
             while reversing).
         bump_mark_m: Length of the face marked by a bump whose contact normal was measured.
@@ -88,6 +93,7 @@ class NavigatorConfig:
     stall_steps: int = 40
     forget_steps: int = 100
     keep_bumps_steps: int = 200
+    progress_reset_m: float = 2.0
     backoff_steps: int = 4
     bump_mark_m: float = 0.8
     bump_guess_m: float = 1.0
@@ -104,3 +110,4 @@ class NavigatorConfig:
         integer(self.max_situations, "max_situations", low=1)
         integer(self.replan_every, "replan_every", low=1)
         positive(self.fused_range_m, "fused_range_m", allow_zero=True)
+        positive(self.progress_reset_m, "progress_reset_m", allow_zero=True)

@@ -131,6 +131,12 @@ class ModelBasedAgent(Agent):
             replan = replan or self._look_done(pose)
         if replan:
             self._plan(pose)
+            assert self.decision is not None
+            recovery.route_cost(
+                self.decision.expected_cost_m,
+                self.steps,
+                float(np.hypot(*(np.array([x, y]) - core.goal))),
+            )
         self._since_plan += 1
         d = self.decision
         assert d is not None

@@ -6,7 +6,10 @@ steps. Bumped again while backing off, it estimates the contact normals from the
 contact blocked (for a sliding contact, a guess of the side) and moves along their mean, away from
 everything it touched lately. No movement for a while counts as a bump (forwards); no progress
 towards the goal for longer tells the agent to forget what it saw and its older bumps (a false
-obstacle may trap it).
+obstacle may trap it). That watch restarts when a re-plan finds the way much longer than the last
+plan did (:meth:`Recovery.route_cost`): the detour round a blockage just found leads away from the
+goal at first, and forgetting half-way round it sent the robot back to the way it had found
+blocked.
 
 Bumped again while already moving along the contact normals, the robot is wedged (in a slot between
 two obstacles, say, whose faces the normals estimated from blocked motion, alternating, do not
@@ -15,7 +18,8 @@ for up to ``_RETRACE_M`` (then it re-plans from there).
 
 :class:`Recovery` owns this state; each step the agent calls :meth:`Recovery.update` (what
 happened), :meth:`Recovery.escape_command` (the back-off's command, if one is under way) and
-:meth:`Recovery.commanded` (the forward command finally sent).
+:meth:`Recovery.commanded` (the forward command finally sent), and after each re-plan
+:meth:`Recovery.route_cost`.
 """
 
 from __future__ import annotations
@@ -122,6 +126,7 @@ class Recovery:
         self._anchor_step = 0
         self._closest = goal_distance_m
         self._closest_step = 0
+        self._route_cost = math.inf
         # The trail of places passed (oldest first), the points of it being retraced (next
         # first), contacts met while retracing, and bumps met during the current back-off.
         self._trail: deque[tuple[int, FloatArray]] = deque(
@@ -131,6 +136,17 @@ class Recovery:
         self._retrace: list[FloatArray] = []
         self._retrace_blocked = 0
         self._escape_bumps = 0
+
+    def route_cost(self, cost_m: float, step: int, goal_distance_m: float) -> None:
+        """Take in the expected cost of the route just planned: a rise of more than
+        ``progress_reset_m`` over the last one (a way found blocked, a detour begun) restarts the
+        progress watch from ``goal_distance_m``, so that a detour away from the goal is not taken
+        for lost progress (and what blocked the way is not forgotten)."""
+        reset = self.config.progress_reset_m
+        if reset > 0.0 and math.isfinite(cost_m):
+            if math.isfinite(self._route_cost) and cost_m > self._route_cost + reset:
+                self._closest, self._closest_step = goal_distance_m, step
+            self._route_cost = cost_m
 
     @property
     def escaping(self) -> bool:
