@@ -251,15 +251,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self.observation_space = cast(
             spaces.Space[Obs], observation_space(self.config.observation, self.rig)
         )
-        self._fixed_scene: Scene | None = (
-            None
-            if self.config.is_generated
-            else load_scenario(
-                self.config.scenario,
-                robot_width_m=self.config.world.robot_width_m,
-                surface_detail=self.config.surface_detail,
-            )
-        )
+        self._fixed_scene: Scene | None = None if self.config.is_generated else self._load_scene()
         self.scene: Scene | None = None
         self.world: World | None = None
         self.model: EnvironmentModel | None = None
@@ -415,13 +407,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         if self._fixed_scene is not None:
             scene = self._fixed_scene
         else:
-            scene_seed = int(self.np_random.integers(2**31 - 1))
-            scene = load_scenario(
-                cfg.scenario,
-                scene_seed,
-                robot_width_m=cfg.world.robot_width_m,
-                surface_detail=cfg.surface_detail,
-            )
+            scene = self._load_scene(int(self.np_random.integers(2**31 - 1)))
         self.scene = scene
         self.world = World(scene, cfg.world)
         if self._truth_scene is not scene:
@@ -522,14 +508,18 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         """Draw the next resets' scenes from ``scenario`` (a map or family; a curriculum's next
         stage): the spaces stay, the episode under way goes on. ``ValueError`` for a bad name."""
         self.config = dataclasses.replace(self.config, scenario=scenario)
+        self._fixed_scene = None if self.config.is_generated else self._load_scene()
+
+    def _load_scene(self, seed: int = 0) -> Scene:
+        """The configured scenario's scene (a family's drawn from ``seed``), for the configured
+        robot width and surface detail."""
         cfg = self.config
-        width = cfg.world.robot_width_m
-        fixed = (
-            None
-            if cfg.is_generated
-            else load_scenario(cfg.scenario, robot_width_m=width, surface_detail=cfg.surface_detail)
+        return load_scenario(
+            cfg.scenario,
+            seed,
+            robot_width_m=cfg.world.robot_width_m,
+            surface_detail=cfg.surface_detail,
         )
-        self._fixed_scene = fixed
 
     def close(self) -> None:
         """Release the renderer's OpenGL context (idempotent; rendering again makes a new one)."""

@@ -104,11 +104,12 @@ class ModelBasedAgent(Agent):
         x, y, heading, _ = pose
         core.observe(model_of(self.env, info), self.steps, fused=memory_model_of(info))
         replan = self.decision is None or self._since_plan >= cfg.replan_every
+        goal_distance_m = float(np.hypot(*(np.array([x, y]) - core.goal)))
         events = recovery.update(
             (x, y, heading),
             self.steps,
             collided=bool(info.get("collision", False)),
-            goal_distance_m=float(np.hypot(*(np.array([x, y]) - core.goal))),
+            goal_distance_m=goal_distance_m,
         )
         self.events = events
         if events.bump is not None:
@@ -132,11 +133,7 @@ class ModelBasedAgent(Agent):
         if replan:
             self._plan(pose)
             assert self.decision is not None
-            recovery.route_cost(
-                self.decision.expected_cost_m,
-                self.steps,
-                float(np.hypot(*(np.array([x, y]) - core.goal))),
-            )
+            recovery.route_cost(self.decision.expected_cost_m, self.steps, goal_distance_m)
         self._since_plan += 1
         d = self.decision
         assert d is not None

@@ -53,7 +53,7 @@ from modeling.model.items import (
 )
 from modeling.model.occlusion import occluded_polygons, occluders_of
 from modeling.model.records import CriticalRegion, EnvironmentModel, Obstacle, Passage, Situation
-from modeling.model.relations import EarlierRelations, SegmentRelations
+from modeling.model.relations import EarlierRelations
 from modeling.model.situations import enumerate_situations
 from modeling.observation import FloorObservation
 from modeling.validation import integer, positive, with_overrides
@@ -118,10 +118,9 @@ class ModelCache:
         key: What the relations and isolated short segments depend on: the options, the robot
             width, the items' arrays (bytes), their candidates and the ambiguous segments'
             probabilities.
-        rel: The relations of those items.
-        earlier: The same relations with their items' arrays: where the items changed, the
-            rows of the pairs that did not are taken from them
-            (:class:`~modeling.model.relations.EarlierRelations`).
+        earlier: The relations of those items, with the items' arrays: taken whole when the
+            key is the same; where the items changed, the rows of the pairs that did not are
+            taken from them (:class:`~modeling.model.relations.EarlierRelations`).
         isolation: Their isolated short segments.
         units: The units moving together (Fig. 7).
         after_units: The elimination, the groups, the situations and the residual made from
@@ -131,7 +130,6 @@ class ModelCache:
     """
 
     key: tuple[Any, ...] | None = None
-    rel: SegmentRelations | None = None
     earlier: EarlierRelations | None = None
     isolation: Isolation | None = None
     units: list[Unit] = field(default_factory=list)
@@ -207,8 +205,8 @@ def build_model(
     key = None if cache is None else _cache_key(items, observation, width, opts)
     hit = cache is not None and cache.key == key
     if hit:
-        assert cache is not None and cache.rel is not None and cache.isolation is not None
-        rel, isolation = cache.rel, cache.isolation
+        assert cache is not None and cache.earlier is not None and cache.isolation is not None
+        rel, isolation = cache.earlier.relations, cache.isolation
         cache.hits += 1
     else:
         rel = item_relations(items, width, eps, None if cache is None else cache.earlier)
@@ -237,7 +235,7 @@ def build_model(
             outline_buffer_m=buffer_m,
         )
     if cache is not None:
-        cache.key, cache.rel, cache.isolation, cache.units = key, rel, isolation, units
+        cache.key, cache.isolation, cache.units = key, isolation, units
         cache.earlier = EarlierRelations(items.ends, items.covs, width, rel)
         cache.after_units = (elimination, groups, situations, residual)
     # Occlusion: behind the obstacles of the most probable situation.

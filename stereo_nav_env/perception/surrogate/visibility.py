@@ -164,9 +164,7 @@ class SceneEdges:
                 polys.append(shapely.Polygon(fp))
                 z_min.append(part.z_min_m)
                 z_max.append(part.z_max_m)
-                side = np.roll(fp, -1, axis=0) - fp  # side k runs from corner k to k + 1
-                n = np.stack([side[:, 1], -side[:, 0]], axis=1)
-                n /= np.linalg.norm(n, axis=1, keepdims=True)
+                side, n = _sides(fp)
                 starts.append(fp)
                 side_n.append(n)
                 base = np.asarray(part.color, dtype=np.float64)
@@ -238,6 +236,15 @@ class SceneEdges:
         )
 
 
+def _sides(fp: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The sides of the counter-clockwise outline ``fp`` (k, 2), side ``k`` from corner ``k`` to
+    ``k + 1`` (k, 2), and their outward unit normals (k, 2)."""
+    side = np.roll(fp, -1, axis=0) - fp
+    n = np.stack([side[:, 1], -side[:, 0]], axis=1)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    return side, n
+
+
 def _detail_floor_lines(
     ob: Obstacle,
     first_corner: int,
@@ -263,9 +270,7 @@ def _detail_floor_lines(
     for part in ob.detail_parts:
         starts.append(strip_first)
         strip_first += part.footprint.shape[0]
-    side = np.roll(fp, -1, axis=0) - fp
-    n = np.stack([side[:, 1], -side[:, 0]], axis=1)
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    side, n = _sides(fp)
     for face in range(k):
         on = sorted(
             (f.offset_m, j)

@@ -94,6 +94,7 @@ from stereo_nav_env.sim.scenes.types import (
     Scene,
     _color,
     _err,
+    _member,
     _number,
     _polygon_array,
     _vector,
@@ -219,11 +220,7 @@ def _obstacle_from_json(data: Any, field: str) -> Obstacle:
         raise _err(field, f"has unknown keys {unknown}")
     if "kind" not in data:
         raise _err(f"{field}.kind", "is missing")
-    try:
-        kind = ObstacleKind(data["kind"])
-    except ValueError as exc:
-        choices = [k.value for k in ObstacleKind]
-        raise _err(f"{field}.kind", f"must be one of {choices}, got {data['kind']!r}") from exc
+    kind = _member(ObstacleKind, data["kind"], f"{field}.kind")
     if ("footprint" in data) == ("rect" in data):
         raise _err(field, "must have exactly one of 'footprint' or 'rect'")
     if "footprint" in data:
@@ -268,11 +265,7 @@ def _detail_from_json(raw: Any, field: str) -> tuple[FaceFeature, ...]:
         for key in ("kind", "face", "offset", "width", "z", "color"):
             if key not in f:
                 raise _err(f"{ff}.{key}", "is missing")
-        try:
-            kind = DetailKind(f["kind"])
-        except ValueError as exc:
-            choices = [k.value for k in DetailKind]
-            raise _err(f"{ff}.kind", f"must be one of {choices}, got {f['kind']!r}") from exc
+        kind = _member(DetailKind, f["kind"], f"{ff}.kind")
         face = f["face"]
         if isinstance(face, bool) or not isinstance(face, int) or face < 0:
             raise _err(f"{ff}.face", f"must be a non-negative integer, got {face!r}")

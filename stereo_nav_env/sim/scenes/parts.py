@@ -28,6 +28,7 @@ from stereo_nav_env.sim.scenes.types import (
     Obstacle,
     ObstacleKind,
     _color,
+    _member,
     _number,
     _polygon_array,
 )
@@ -152,12 +153,7 @@ def make_obstacle(
     Returns:
         The obstacle.
     """
-    try:
-        kind = ObstacleKind(kind)
-    except ValueError as exc:
-        raise ValueError(
-            f"kind must be one of {[k.value for k in ObstacleKind]}, got {kind!r}"
-        ) from exc
+    kind = _member(ObstacleKind, kind, "kind")
     fp = _polygon_array(footprint, "footprint")
     h = DEFAULT_HEIGHT_M[kind] if height_m is None else _number(height_m, "height_m")
     if h <= 0:

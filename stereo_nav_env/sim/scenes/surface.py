@@ -86,6 +86,21 @@ def _shade(color: Color, factor: float) -> Color:
     return (_round(c[0]), _round(c[1]), _round(c[2]))
 
 
+def _feature(
+    kind: DetailKind, face: int, offset: float, width: float, z: tuple[float, float], color: Color
+) -> FaceFeature:
+    """A strip of ``kind`` on side ``face``, its numbers rounded to 0.1 mm (as maps store them)."""
+    return FaceFeature(
+        kind=kind,
+        face=face,
+        offset_m=_round(offset),
+        width_m=_round(width),
+        z_min_m=_round(z[0]),
+        z_max_m=_round(z[1]),
+        color=color,
+    )
+
+
 def _sides(fp: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Side lengths (k,), middles (k, 2) and outward unit normals (k, 2) of a CCW outline."""
     d = np.roll(fp, -1, axis=0) - fp
@@ -112,15 +127,7 @@ def _wall_detail(rng: np.random.Generator, ob: Obstacle, inside: Polygon) -> lis
             top = min(2.0, h)
             for centre in (start + jamb / 2, start + span - jamb / 2):
                 out.append(
-                    FaceFeature(
-                        kind=DetailKind.DOOR_FRAME,
-                        face=k,
-                        offset_m=_round(centre),
-                        width_m=_round(jamb),
-                        z_min_m=0.0,
-                        z_max_m=_round(top),
-                        color=_DOOR_COLOR,
-                    )
+                    _feature(DetailKind.DOOR_FRAME, k, centre, jamb, (0.0, top), _DOOR_COLOR)
                 )
             door = (start - 0.05, start + span + 0.05)
         panel = float(rng.uniform(0.6, 1.2))
@@ -129,17 +136,7 @@ def _wall_detail(rng: np.random.Generator, ob: Obstacle, inside: Polygon) -> lis
         s = lo + float(rng.uniform(0.0, panel))
         while s + width / 2 <= hi:
             if door is None or not (door[0] - width / 2 <= s <= door[1] + width / 2):
-                out.append(
-                    FaceFeature(
-                        kind=DetailKind.SEAM,
-                        face=k,
-                        offset_m=_round(s),
-                        width_m=_round(width),
-                        z_min_m=0.0,
-                        z_max_m=_round(h),
-                        color=color,
-                    )
-                )
+                out.append(_feature(DetailKind.SEAM, k, s, width, (0.0, h), color))
             s += panel * float(rng.uniform(0.75, 1.25))
     return out
 
@@ -157,31 +154,14 @@ def _box_detail(rng: np.random.Generator, ob: Obstacle) -> list[FaceFeature]:
             width = float(rng.uniform(0.02, 0.03))
             color = _shade(ob.color, float(rng.uniform(0.45, 0.6)))
             for j in range(1, n):
-                out.append(
-                    FaceFeature(
-                        kind=DetailKind.SEAM,
-                        face=k,
-                        offset_m=_round(j * L / n),
-                        width_m=_round(width),
-                        z_min_m=0.0,
-                        z_max_m=_round(h),
-                        color=color,
-                    )
-                )
+                out.append(_feature(DetailKind.SEAM, k, j * L / n, width, (0.0, h), color))
         else:  # one front: a drawer or door panel of its own shade
             width = float(rng.uniform(0.25, 0.6)) * L
             centre = float(rng.uniform(width / 2 + 0.02, L - width / 2 - 0.02))
             factor = float(rng.choice([rng.uniform(0.7, 0.85), rng.uniform(1.15, 1.3)]))
+            top = h * float(rng.uniform(0.55, 0.95))
             out.append(
-                FaceFeature(
-                    kind=DetailKind.FRONT,
-                    face=k,
-                    offset_m=_round(centre),
-                    width_m=_round(width),
-                    z_min_m=0.0,
-                    z_max_m=_round(h * float(rng.uniform(0.55, 0.95))),
-                    color=_shade(ob.color, factor),
-                )
+                _feature(DetailKind.FRONT, k, centre, width, (0.0, top), _shade(ob.color, factor))
             )
     return out
 
@@ -212,16 +192,10 @@ def _bookshelf_detail(rng: np.random.Generator, ob: Obstacle) -> list[FaceFeatur
                 w = float(rng.uniform(0.02, 0.05))
                 if u + w > u1:
                     break
+                top = bottom + clear * float(rng.uniform(0.65, 0.95))
+                color = BOOK_PALETTE[int(rng.integers(len(BOOK_PALETTE)))]
                 out.append(
-                    FaceFeature(
-                        kind=DetailKind.SPINE,
-                        face=0,
-                        offset_m=_round(u + w / 2),
-                        width_m=_round(w - 0.002),
-                        z_min_m=_round(bottom),
-                        z_max_m=_round(bottom + clear * float(rng.uniform(0.65, 0.95))),
-                        color=BOOK_PALETTE[int(rng.integers(len(BOOK_PALETTE)))],
-                    )
+                    _feature(DetailKind.SPINE, 0, u + w / 2, w - 0.002, (bottom, top), color)
                 )
                 u += w
     return out

@@ -26,7 +26,7 @@ import enum
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import shapely
@@ -122,6 +122,18 @@ def _err(field: str, message: str) -> ValueError:
     return ValueError(f"{field} {message}")
 
 
+_E = TypeVar("_E", bound=enum.Enum)
+
+
+def _member(cls: type[_E], value: Any, field: str) -> _E:
+    """``cls(value)``, else a ``ValueError`` naming ``field`` and the choices."""
+    try:
+        return cls(value)
+    except ValueError as exc:
+        choices = [k.value for k in cls]
+        raise _err(field, f"must be one of {choices}, got {value!r}") from exc
+
+
 def _number(value: Any, field: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
         raise _err(field, f"must be a number, got {value!r}")
@@ -197,11 +209,7 @@ class FaceFeature:
     color: Color
 
     def __post_init__(self) -> None:
-        try:
-            object.__setattr__(self, "kind", DetailKind(self.kind))
-        except ValueError as exc:
-            choices = [k.value for k in DetailKind]
-            raise ValueError(f"kind must be one of {choices}, got {self.kind!r}") from exc
+        object.__setattr__(self, "kind", _member(DetailKind, self.kind, "kind"))
         if (
             isinstance(self.face, bool)
             or not isinstance(self.face, int | np.integer)
@@ -294,11 +302,7 @@ class Obstacle:
     detail_parts: tuple[BoxPart, ...] = dataclasses.field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        try:
-            object.__setattr__(self, "kind", ObstacleKind(self.kind))
-        except ValueError as exc:
-            choices = [k.value for k in ObstacleKind]
-            raise ValueError(f"kind must be one of {choices}, got {self.kind!r}") from exc
+        object.__setattr__(self, "kind", _member(ObstacleKind, self.kind, "kind"))
         object.__setattr__(self, "footprint", _polygon_array(self.footprint, "footprint"))
         height = _number(self.height_m, "height_m")
         if height <= 0:

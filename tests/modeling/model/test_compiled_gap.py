@@ -100,12 +100,18 @@ def test_grown_boxes_and_near_pairs_loops_equal_the_numpy_references() -> None:
     assert 0 < len(got.i) < hits.shape[1] // 2  # the filter keeps some hits and drops others
 
 
-def test_relation_rows_loop_equals_the_reference() -> None:
-    rng = np.random.default_rng(3)
-    ends, cov = _segments(rng, 12)
+def _near_pairs(
+    rng: np.random.Generator, n: int
+) -> tuple[np.ndarray, np.ndarray, kernel.PairParams]:
+    """``n`` random segments, their covariances and their near pairs (the compiled loops)."""
+    ends, cov = _segments(rng, n)
     k = prune_sigmas(0.05)
     sigma, box = kernel.grown_boxes(kernel.Segments(ends, cov), 0.5 * W, k)
-    pairs = kernel.near_pairs(ends, sigma, _hits(box), W, k)
+    return ends, cov, kernel.near_pairs(ends, sigma, _hits(box), W, k)
+
+
+def test_relation_rows_loop_equals_the_reference() -> None:
+    ends, cov, pairs = _near_pairs(np.random.default_rng(3), 12)
     got = kernel.relation_rows(kernel.Segments(ends, cov), pairs, W, QUADRATURE_RULES)
     ref = relation_rows_reference(ends, cov, pairs, W)
     for a, b in zip(got[:5], ref[:5], strict=True):  # points, covariances, distance: same ops
@@ -119,10 +125,7 @@ def test_relation_rows_loop_equals_the_reference() -> None:
 def test_relation_rows_taking_loop_equals_the_reference() -> None:
     """Rows taken from earlier rows are copied bit for bit; the others are relation_rows'."""
     rng = np.random.default_rng(4)
-    ends, cov = _segments(rng, 12)
-    k = prune_sigmas(0.05)
-    sigma, box = kernel.grown_boxes(kernel.Segments(ends, cov), 0.5 * W, k)
-    pairs = kernel.near_pairs(ends, sigma, _hits(box), W, k)
+    ends, cov, pairs = _near_pairs(rng, 12)
     m = pairs.i.shape[0]
     earlier = tuple(rng.normal(size=a.shape) for a in relation_rows_reference(ends, cov, pairs, W))
     take = np.where(rng.random(m) < 0.5, rng.integers(0, m, m), -1)
