@@ -237,7 +237,10 @@ class ImitationConfig:
             value repeats).
         epochs: Passes over the aggregated data after the demonstrations and after each round.
         batch_size: Minibatch size.
-        learning_rate: Adam step size.
+        learning_rate: Adam step size at the start of each fit.
+        final_lr_share: Each fit's step size falls along a cosine from ``learning_rate`` to
+            this share of it by its last minibatch (1: constant), so that every phase ends
+            on weights that the minibatch noise of a large step has not moved off the minimum.
         validation_share: Share of the samples held out of the fits (drawn per sample as it is
             stored); each phase's record gives the loss and the per-command bin accuracy on
             them, to tell an under-fitted student from one that fits but drives badly.
@@ -264,6 +267,7 @@ class ImitationConfig:
     epochs: int = 3
     batch_size: int = 256
     learning_rate: float = 1e-3
+    final_lr_share: float = 0.1
     validation_share: float = 0.05
     bins: int = 11
     width: int = 256
@@ -294,6 +298,8 @@ class ImitationConfig:
                 raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
         if self.bins < 3:
             raise ValueError(f"bins must be at least 3, got {self.bins}")
+        if not 0.0 < self.final_lr_share <= 1.0:
+            raise ValueError(f"final_lr_share must lie in (0, 1], got {self.final_lr_share!r}")
         if not 0.0 <= self.validation_share < 0.5:
             raise ValueError(
                 f"validation_share must lie in [0, 0.5), got {self.validation_share!r}"
@@ -484,6 +490,11 @@ def _fit(
     net.to(memory_format=layout)
     optimiser = torch.optim.Adam(net.parameters(), lr=cfg.learning_rate)
     train = np.flatnonzero(~held_out)
+    schedule = torch.optim.lr_scheduler.CosineAnnealingLR(
+        optimiser,
+        T_max=max(cfg.epochs * math.ceil(train.size / cfg.batch_size), 1),
+        eta_min=cfg.learning_rate * cfg.final_lr_share,
+    )
     last = math.nan
     for _ in range(cfg.epochs):
         order = rng.permutation(train)
@@ -496,6 +507,7 @@ def _fit(
             optimiser.zero_grad()
             loss.backward()
             optimiser.step()
+            schedule.step()
             total += float(loss.detach()) * idx.size
         last = total / max(order.size, 1)
     net.to(memory_format=torch.contiguous_format)

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import importlib.util
+import itertools
 import pathlib
 from types import ModuleType
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -127,6 +129,8 @@ def test_bad_recipes_are_named(tmp_path: pathlib.Path) -> None:
         ImitationConfig(out_dir=tmp_path, betas=(1.5,))
     with pytest.raises(ValueError, match="validation_share"):
         ImitationConfig(out_dir=tmp_path, validation_share=0.5)
+    with pytest.raises(ValueError, match="final_lr_share"):
+        ImitationConfig(out_dir=tmp_path, final_lr_share=0.0)
     with pytest.raises(ValueError, match="info_models"):
         ImitationConfig(out_dir=tmp_path, env_kwargs={"info_models": True})
     with pytest.raises(FileNotFoundError, match="no trained policy"):
@@ -202,3 +206,40 @@ def test_fits_run_channels_last_with_nchws_sums_and_leave_the_net_nchw(tmp_path)
     assert speed["fit_channels_last_over_nchw"] == pytest.approx(
         speed["fit_samples_per_s_channels_last"] / speed["fit_samples_per_s_nchw"]
     )
+
+
+def test_each_fit_decays_its_step_size_from_the_recipes_to_its_final_share(
+    tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import torch
+
+    from agents.learning.egomap import CHANNELS, STATE_FEATURES
+
+    used: list[float] = []
+
+    class Recording(torch.optim.Adam):
+        def step(self, closure: Any = None) -> Any:
+            used.append(self.param_groups[0]["lr"])
+            return super().step(closure)
+
+    monkeypatch.setattr(torch.optim, "Adam", Recording)
+    rng = np.random.default_rng(2)
+    n, size = 40, 16
+    egomap = EgoMapConfig(size_px=size)
+    data = _Dataset(validation_share=0.0, seed=1)
+    data.add(
+        rng.integers(0, 256, size=(n, len(CHANNELS), size, size), dtype=np.uint8),
+        rng.uniform(-1, 1, size=(n, len(STATE_FEATURES))).astype(np.float32),
+        rng.uniform(-1, 1, size=(n, 3)).astype(np.float32),
+    )
+    cfg = ImitationConfig(
+        out_dir=tmp_path, egomap=egomap, epochs=2, batch_size=8, width=32, final_lr_share=0.1
+    )
+    for _ in range(2):  # a second fit (the next phase) starts again at the full step size
+        used.clear()
+        _fit(_new_bundle(egomap, 11, 32, {}), data, cfg, np.random.default_rng(0))
+        assert len(used) == 2 * 5
+        assert used[0] == pytest.approx(1e-3)
+        assert all(a > b for a, b in itertools.pairwise(used))
+        # the cosine reaches the floor one step after the last minibatch
+        assert used[-1] == pytest.approx(1e-4 + 0.9e-3 * (1 + np.cos(np.pi * 9 / 10)) / 2)
