@@ -243,3 +243,30 @@ def test_each_fit_decays_its_step_size_from_the_recipes_to_its_final_share(
         assert all(a > b for a, b in itertools.pairwise(used))
         # the cosine reaches the floor one step after the last minibatch
         assert used[-1] == pytest.approx(1e-4 + 0.9e-3 * (1 + np.cos(np.pi * 9 / 10)) / 2)
+
+
+def test_the_dataset_joins_its_chunks_once_and_keeps_every_sample() -> None:
+    rng = np.random.default_rng(3)
+    data = _Dataset(validation_share=0.3, seed=2)
+    chunks = [
+        (
+            rng.integers(0, 256, size=(k, 2, 4, 4), dtype=np.uint8),
+            rng.normal(size=(k, 5)).astype(np.float32),
+            rng.uniform(-1, 1, size=(k, 3)).astype(np.float32),
+        )
+        for k in (3, 4, 5)
+    ]
+    data.add(*chunks[0])
+    data.add(*chunks[1])
+    first = data.arrays()
+    data.add(*chunks[2])
+    maps, states, actions, held_out = data.arrays()
+    assert len(data.maps) == 1 and len(data) == 12
+    np.testing.assert_array_equal(maps, np.concatenate([c[0] for c in chunks]))
+    np.testing.assert_array_equal(states, np.concatenate([c[1] for c in chunks]))
+    np.testing.assert_array_equal(actions, np.concatenate([c[2] for c in chunks]))
+    np.testing.assert_array_equal(held_out[:7], first[3])
+    again = _Dataset(validation_share=0.3, seed=2)
+    for c in chunks:
+        again.add(*c)
+    np.testing.assert_array_equal(held_out, again.arrays()[3])
