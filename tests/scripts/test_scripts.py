@@ -5,32 +5,23 @@ Each script is loaded from its file (scripts/ is not a package) and its ``main(a
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import pathlib
-from types import ModuleType, SimpleNamespace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+from tests.scripts.loader import load_script
+
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-
-
-def _script(name: str) -> ModuleType:
-    """The module of ``scripts/<name>.py``."""
-    path = ROOT / "scripts" / f"{name}.py"
-    spec = importlib.util.spec_from_file_location(f"script_{name}", path)
-    assert spec is not None and spec.loader is not None, path
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def test_evaluate_writes_json_markdown_plot_and_details(
     tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     out = tmp_path / "eval.json"
-    summary = _script("evaluate").main(
+    summary = load_script("evaluate").main(
         [
             "--agent", "oracle", "--agent", "random", "--episodes", "2", "--seed", "1",
             "--families", "room", "corridor", "--max-steps", "15", "--json", str(out),
@@ -63,7 +54,7 @@ def test_evaluate_without_json_prints_the_table_and_writes_no_file(
     tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     monkeypatch.chdir(tmp_path)
-    summary = _script("evaluate").main(
+    summary = load_script("evaluate").main(
         [
             "--agent", "oracle", "--episodes", "1", "--families", "corridor", "--max-steps", "3",
             "--perception", "surrogate", "--no-progress",
@@ -77,7 +68,7 @@ def test_evaluate_without_json_prints_the_table_and_writes_no_file(
 def test_demo_writes_gif_figure_and_summary(
     tmp_path: pathlib.Path, small_map: pathlib.Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    result = _script("demo").main(
+    result = load_script("demo").main(
         ["--scenario", str(small_map), "--seed", "0", "--out", str(tmp_path / "demo"),
          "--max-steps", "12"]
     )  # fmt: skip
@@ -91,7 +82,7 @@ def test_demo_writes_gif_figure_and_summary(
 
 
 def test_train_runs_end_to_end(tmp_path: pathlib.Path, small_map: pathlib.Path) -> None:
-    result = _script("train").main(
+    result = load_script("train").main(
         ["--timesteps", "64", "--n-envs", "1", "--out", str(tmp_path / "ppo"),
          "--rollout-steps", "32", "--batch-size", "32", "--eval-freq", "0",
          "--checkpoint-freq", "0", "--scenario", str(small_map), "--no-progress"]
@@ -105,7 +96,7 @@ def test_memory_eval_compares_the_fused_and_single_view_figures_on_the_same_step
 ) -> None:
     monkeypatch.syspath_prepend(str(ROOT / "scripts"))  # its _figures helper lives there
     out = tmp_path / "memory.json"
-    figures = _script("memory_eval").main(
+    figures = load_script("memory_eval").main(
         ["--seeds", "1", "--max-steps", "4", "--scenario", "two_gaps", "--json", str(out)]
     )
     assert json.loads(out.read_text()) == pytest.approx(figures, nan_ok=True)
@@ -123,7 +114,7 @@ def test_ablation_writes_its_table_plot_views_and_json_per_agent_and_perception(
 ) -> None:
     monkeypatch.syspath_prepend(str(ROOT / "scripts"))  # it reuses evaluate.py's options
     out = tmp_path / "ablation"
-    summary = _script("ablation").main(
+    summary = load_script("ablation").main(
         [
             "--agent", "oracle", "--perception", "truth", "--perception", "stereo_means",
             "--episodes", "1", "--families", "corridor", "--max-steps", "3",
@@ -146,13 +137,13 @@ def test_ablation_writes_its_table_plot_views_and_json_per_agent_and_perception(
     for name in ("ablation_plot.png", "ablation_views.png"):
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with pytest.raises(SystemExit):  # a test seed under --split dev, as evaluate.py refuses
-        _script("ablation").main(["--seed", "900000", "--out", str(out)])
+        load_script("ablation").main(["--seed", "900000", "--out", str(out)])
 
 
 def test_memory_figure_draws_one_view_beside_the_fused_model(
     tmp_path: pathlib.Path, small_map: pathlib.Path
 ) -> None:
-    path = _script("memory_figure").main(
+    path = load_script("memory_figure").main(
         ["--scenario", str(small_map), "--views", "3", "--out", str(tmp_path / "m.png")]
     )
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 5000
@@ -163,7 +154,7 @@ def test_perception_cost_pairs_the_suite_under_both_perceptions(
 ) -> None:
     monkeypatch.syspath_prepend(str(ROOT / "scripts"))  # it imports evaluate.py's suite
     out = tmp_path / "cost.json"
-    cost = _script("perception_cost").main(
+    cost = load_script("perception_cost").main(
         [
             "--agent", "greedy", "--episodes", "2", "--seed", "3", "--families", "open",
             "--max-steps", "40", "--json", str(out), "--markdown", str(tmp_path / "cost.md"),
@@ -181,20 +172,20 @@ def test_perception_cost_pairs_the_suite_under_both_perceptions(
     details = []
     for perception in ("stereo", "surrogate"):
         details.append(str(tmp_path / f"{perception}.json"))
-        _script("evaluate").main(
+        load_script("evaluate").main(
             [
                 "--agent", "greedy", "--episodes", "2", "--seed", "3", "--families", "open",
                 "--max-steps", "40", "--json", str(tmp_path / "e.json"), "--details", details[-1],
                 "--perception", perception, "--no-progress",
             ]
         )  # fmt: skip
-    paired = _script("perception_cost").main(
+    paired = load_script("perception_cost").main(
         ["--agent", "greedy", "--from-details", *details, "--json", str(tmp_path / "p.json")]
     )
     assert paired["greedy"]["spl_cost"] == greedy["spl_cost"]
     assert paired["greedy"]["surrogate"]["spl"] == greedy["surrogate"]["spl"]
     with pytest.raises(ValueError, match="no episodes of \\['planner'\\]"):
-        _script("perception_cost").main(
+        load_script("perception_cost").main(
             ["--agent", "planner", "--from-details", *details, "--json", str(tmp_path / "q.json")]
         )
 
@@ -205,7 +196,7 @@ def test_collision_report_records_each_contact_with_the_obstacle_hit(
     monkeypatch.syspath_prepend(str(ROOT / "scripts"))
     # the planner's first suite episode (a room) touches a table at step 109 (0-based)
     out = tmp_path / "contacts.json"
-    contacts = _script("collision_report").main(
+    contacts = load_script("collision_report").main(
         [
             "--agent", "planner", "--episodes", "1", "--seed", "0", "--families", "room",
             "--max-steps", "112", "--json", str(out),
@@ -226,7 +217,7 @@ def test_stall_report_lists_each_episode_with_its_patterns(
 ) -> None:
     monkeypatch.syspath_prepend(str(ROOT / "scripts"))
     out = tmp_path / "stalls.json"
-    rows = _script("stall_report").main(
+    rows = load_script("stall_report").main(
         [
             "--episodes", "2", "--seed", "0", "--only", "1", "--perception", "surrogate",
             "--max-steps", "30", "--json", str(out),
@@ -241,7 +232,7 @@ def test_collision_report_with_memory_measures_what_the_fused_memory_held(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     monkeypatch.syspath_prepend(str(ROOT / "scripts"))
-    report = _script("collision_report")
+    report = load_script("collision_report")
     contacts = report.main(
         [
             "--agent", "planner", "--episodes", "1", "--seed", "0", "--families", "room",

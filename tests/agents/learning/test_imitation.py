@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import importlib.util
 import itertools
 import pathlib
-from types import ModuleType
 from typing import Any
 
 import gymnasium as gym
@@ -31,16 +29,7 @@ from agents.learning.imitation import (
     train_imitation,
 )
 from agents.learning.wrappers import PlannerTeacher
-
-ROOT = pathlib.Path(__file__).resolve().parents[3]
-
-
-def _script(name: str) -> ModuleType:
-    spec = importlib.util.spec_from_file_location(f"script_{name}", ROOT / "scripts" / f"{name}.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+from tests.scripts.loader import load_script
 
 
 def test_bins_give_every_action_back() -> None:
@@ -116,7 +105,7 @@ def test_a_dagger_smoke_run_writes_a_policy_that_loads_and_acts(tmp_path: pathli
 
 
 def test_the_recipe_trains_under_the_rules_the_suite_evaluates(tmp_path: pathlib.Path) -> None:
-    cfg = _script("train").imitation_config(["--teacher", "planner", "--out", str(tmp_path)])
+    cfg = load_script("train").imitation_config(["--teacher", "planner", "--out", str(tmp_path)])
     assert cfg.rules() == suite_rules(SuiteConfig())
     assert cfg.rules()["preset"] == "v1"
     assert cfg.command.startswith("python scripts/train.py --teacher planner")

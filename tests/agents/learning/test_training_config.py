@@ -2,29 +2,18 @@
 
 from __future__ import annotations
 
-import importlib.util
 import pathlib
-from types import ModuleType
 
 from agents.evaluation.suite import suite_env_config, suite_rules
-
-ROOT = pathlib.Path(__file__).resolve().parents[3]
-
-
-def _script(name: str) -> ModuleType:
-    spec = importlib.util.spec_from_file_location(f"script_{name}", ROOT / "scripts" / f"{name}.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+from tests.scripts.loader import load_script
 
 
 def test_training_and_evaluation_build_identical_env_configs(tmp_path: pathlib.Path) -> None:
     for family in ("open", "sparse", "room"):
-        train = _script("train").train_config(
+        train = load_script("train").train_config(
             ["--timesteps", "10", "--out", str(tmp_path), "--scenario", family]
         )
-        suite = _script("evaluate").suite_config(
+        suite = load_script("evaluate").suite_config(
             ["--agent", "greedy", "--json", str(tmp_path / "e.json"), "--scenario", family]
         )
         assert suite.families == (family,)
@@ -37,8 +26,8 @@ def test_training_and_evaluation_build_identical_env_configs(tmp_path: pathlib.P
 
 def test_evaluate_tilt_sets_the_suite_envs_head_tilt(tmp_path: pathlib.Path) -> None:
     base = ["--agent", "greedy", "--json", str(tmp_path / "e.json")]
-    tilted = _script("evaluate").suite_config([*base, "--tilt", "0.3"])
-    level = _script("evaluate").suite_config(base)
+    tilted = load_script("evaluate").suite_config([*base, "--tilt", "0.3"])
+    level = load_script("evaluate").suite_config(base)
     assert suite_env_config(tilted, "room").camera.tilt_rad == 0.3
     assert suite_env_config(level, "room").camera.tilt_rad == 0.0
     assert (
