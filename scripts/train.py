@@ -80,6 +80,12 @@ def imitation_config(argv: list[str] | None = None) -> ImitationConfig:
     parser.add_argument(
         "--epochs", type=int, default=defaults.epochs, help="passes over the data per phase"
     )
+    parser.add_argument(
+        "--torch-threads",
+        type=int,
+        default=defaults.torch_threads,
+        help="torch threads of the fits (1 when other jobs share the cores)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     words = sys.argv[1:] if argv is None else argv
@@ -92,6 +98,7 @@ def imitation_config(argv: list[str] | None = None) -> ImitationConfig:
         rounds=args.rounds,
         round_steps=args.round_steps,
         epochs=args.epochs,
+        torch_threads=args.torch_threads,
         env_kwargs={"perception": args.perception, "diagnostics": False},
         command="python scripts/train.py " + shlex.join(words),
         progress=not args.no_progress,

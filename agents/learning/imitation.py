@@ -45,7 +45,7 @@ import pathlib
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -251,7 +251,7 @@ class ImitationConfig:
         families: Scene families of the training episodes, and ``weights`` their shares.
         weights: Shares of ``families``.
         egomap: The observation geometry.
-        torch_threads: torch's threads in the main process.
+        torch_threads: torch's threads in the main process's fits (the student acts on one).
         command: The command line that ran (recorded in the policy).
         progress: Show progress bars.
     """
@@ -357,50 +357,64 @@ class ImitationResult:
     steps: int
 
 
-_Chunk = TypeVar("_Chunk", bound=np.generic)
-
-
-def _joined(chunks: list[NDArray[_Chunk]]) -> NDArray[_Chunk]:
-    """``chunks`` as one array; the chunks themselves are dropped, so the samples are held once
-    (the caller replaces its list), and one chunk is returned as it is."""
-    joined = chunks[0] if len(chunks) == 1 else np.concatenate(chunks)
-    chunks.clear()
-    return joined
-
-
 class _Dataset:
-    """The aggregated (map, state, teacher action) samples, grown in chunks; each sample is
-    held out for validation with probability ``validation_share`` when it is stored."""
+    """The aggregated (map, state, teacher action) samples, stored in arrays that grow by
+    doubling (``capacity`` first: the recipe reserves its whole run, and pages no sample reached
+    are never touched), so that every sample is held once; each sample is held out for
+    validation with probability ``validation_share`` when it is stored."""
 
-    def __init__(self, validation_share: float = 0.0, seed: int = 0) -> None:
-        self.maps: list[NDArray[np.uint8]] = []
-        self.states: list[NDArray[np.float32]] = []
-        self.actions: list[NDArray[np.float32]] = []
-        self.held_out: list[NDArray[np.bool_]] = []
+    def __init__(self, validation_share: float = 0.0, seed: int = 0, capacity: int = 0) -> None:
         self.validation_share = validation_share
         self._rng = np.random.default_rng(seed)
+        self._capacity = max(int(capacity), 0)
+        self._n = 0
+        self._maps: NDArray[np.uint8] | None = None
+        self._states = np.zeros((0, 0), dtype=np.float32)
+        self._actions = np.zeros((0, 3), dtype=np.float32)
+        self._held_out = np.zeros(0, dtype=np.bool_)
+
+    def _reserve(self, maps: NDArray[np.uint8], states: NDArray[np.float32], n: int) -> None:
+        """Room for ``n`` samples shaped like ``maps`` and ``states``."""
+        if self._maps is not None and n <= self._maps.shape[0]:
+            return
+        size = max(n, self._capacity, 2 * (0 if self._maps is None else self._maps.shape[0]))
+        grown_maps = np.empty((size, *maps.shape[1:]), dtype=np.uint8)
+        grown_states = np.empty((size, *states.shape[1:]), dtype=np.float32)
+        grown_actions = np.empty((size, 3), dtype=np.float32)
+        grown_held = np.empty(size, dtype=np.bool_)
+        if self._maps is not None:
+            grown_maps[: self._n] = self._maps[: self._n]
+            grown_states[: self._n] = self._states[: self._n]
+            grown_actions[: self._n] = self._actions[: self._n]
+            grown_held[: self._n] = self._held_out[: self._n]
+        self._maps, self._states = grown_maps, grown_states
+        self._actions, self._held_out = grown_actions, grown_held
 
     def add(self, maps: NDArray[np.uint8], states: NDArray[np.float32], actions: Any) -> None:
-        self.maps.append(np.asarray(maps, dtype=np.uint8))
-        self.states.append(np.asarray(states, dtype=np.float32))
-        self.actions.append(np.asarray(actions, dtype=np.float32).reshape(-1, 3))
-        draws = self._rng.random(self.actions[-1].shape[0])
-        self.held_out.append(np.asarray(draws < self.validation_share, dtype=np.bool_))
+        maps = np.asarray(maps, dtype=np.uint8)
+        states = np.asarray(states, dtype=np.float32)
+        actions = np.asarray(actions, dtype=np.float32).reshape(-1, 3)
+        k = actions.shape[0]
+        self._reserve(maps, states, self._n + k)
+        assert self._maps is not None
+        part = slice(self._n, self._n + k)
+        self._maps[part] = maps
+        self._states[part] = states
+        self._actions[part] = actions
+        self._held_out[part] = self._rng.random(k) < self.validation_share
+        self._n += k
 
     def arrays(
         self,
     ) -> tuple[NDArray[np.uint8], NDArray[np.float32], NDArray[np.float32], NDArray[np.bool_]]:
-        """Maps, states, actions and the held-out mask of every sample. The chunks are joined
-        in place, so that the samples are held once during a fit, not twice (150,000 maps of
-        the recipe take 4.9 GB)."""
-        self.maps = [_joined(self.maps)]
-        self.states = [_joined(self.states)]
-        self.actions = [_joined(self.actions)]
-        self.held_out = [_joined(self.held_out)]
-        return self.maps[0], self.states[0], self.actions[0], self.held_out[0]
+        """Maps, states, actions and the held-out mask of every sample (views, not copies)."""
+        if self._maps is None:
+            raise ValueError("the dataset holds no samples yet")
+        n = self._n
+        return self._maps[:n], self._states[:n], self._actions[:n], self._held_out[:n]
 
     def __len__(self) -> int:
-        return sum(a.shape[0] for a in self.actions)
+        return self._n
 
 
 def training_vector_env(cfg: ImitationConfig) -> Any:
@@ -614,10 +628,10 @@ def train_imitation(
         "command": cfg.command,
     }
     bundle = _new_bundle(cfg.egomap, cfg.bins, cfg.width, meta)
-    data = _Dataset(cfg.validation_share, cfg.seed)
+    total = cfg.demo_steps + cfg.rounds * cfg.round_steps
+    data = _Dataset(cfg.validation_share, cfg.seed, capacity=total + cfg.n_envs)
     record: list[dict[str, Any]] = []  # one row per phase (the demonstrations, each round)
     curve: list[dict[str, Any]] = []  # one row per finished training episode
-    total = cfg.demo_steps + cfg.rounds * cfg.round_steps
     venv = training_vector_env(cfg)
     bar = tqdm(total=total, unit="step", desc="imitation", disable=not cfg.progress)
     try:
@@ -634,9 +648,14 @@ def train_imitation(
             steps = cfg.demo_steps if phase == 0 else cfg.round_steps
             student = None if phase == 0 else bundle
             before = state["steps"]
+            # The student acts on a batch of n_envs maps: one thread does it in under a
+            # millisecond, where a team of threads waits on its slowest member, 30x longer
+            # when other processes hold the cores (docs/training.md, "Training throughput").
+            torch.set_num_threads(1)
             finished = _collect(venv, state, student, beta, steps, data, rng, bar)
             name = "demonstrations" if phase == 0 else f"dagger {phase}"
             curve += [{**e, "phase": name, "beta": beta} for e in finished]
+            torch.set_num_threads(cfg.torch_threads)
             fit = _fit(bundle, data, cfg, rng)
             successes = [e["success"] for e in finished]
             row: dict[str, Any] = {

@@ -109,6 +109,14 @@ def test_the_recipe_trains_under_the_rules_the_suite_evaluates(tmp_path: pathlib
     assert cfg.rules() == suite_rules(SuiteConfig())
     assert cfg.rules()["preset"] == "v1"
     assert cfg.command.startswith("python scripts/train.py --teacher planner")
+    assert cfg.torch_threads == 2
+    shared = load_script("train").imitation_config(
+        ["--teacher", "planner", "--out", str(tmp_path), "--torch-threads", "1"]
+    )
+    assert shared.torch_threads == 1 and shared.to_dict() == {
+        **cfg.to_dict(),
+        **{"torch_threads": 1, "command": shared.command},
+    }
 
 
 def test_bad_recipes_are_named(tmp_path: pathlib.Path) -> None:
@@ -234,9 +242,8 @@ def test_each_fit_decays_its_step_size_from_the_recipes_to_its_final_share(
         assert used[-1] == pytest.approx(1e-4 + 0.9e-3 * (1 + np.cos(np.pi * 9 / 10)) / 2)
 
 
-def test_the_dataset_joins_its_chunks_once_and_keeps_every_sample() -> None:
+def test_the_dataset_keeps_every_sample_whether_it_reserved_room_or_grew() -> None:
     rng = np.random.default_rng(3)
-    data = _Dataset(validation_share=0.3, seed=2)
     chunks = [
         (
             rng.integers(0, 256, size=(k, 2, 4, 4), dtype=np.uint8),
@@ -245,17 +252,22 @@ def test_the_dataset_joins_its_chunks_once_and_keeps_every_sample() -> None:
         )
         for k in (3, 4, 5)
     ]
-    data.add(*chunks[0])
-    data.add(*chunks[1])
-    first = data.arrays()
-    data.add(*chunks[2])
-    maps, states, actions, held_out = data.arrays()
-    assert len(data.maps) == 1 and len(data) == 12
-    np.testing.assert_array_equal(maps, np.concatenate([c[0] for c in chunks]))
-    np.testing.assert_array_equal(states, np.concatenate([c[1] for c in chunks]))
-    np.testing.assert_array_equal(actions, np.concatenate([c[2] for c in chunks]))
-    np.testing.assert_array_equal(held_out[:7], first[3])
-    again = _Dataset(validation_share=0.3, seed=2)
-    for c in chunks:
-        again.add(*c)
-    np.testing.assert_array_equal(held_out, again.arrays()[3])
+    held = []
+    for capacity in (0, 2, 12, 100):
+        data = _Dataset(validation_share=0.3, seed=2, capacity=capacity)
+        with pytest.raises(ValueError, match="no samples"):
+            data.arrays()
+        data.add(*chunks[0])
+        data.add(*chunks[1])
+        first = data.arrays()[0].copy()
+        data.add(*chunks[2])
+        maps, states, actions, held_out = data.arrays()
+        assert len(data) == 12 and maps.shape == (12, 2, 4, 4)
+        np.testing.assert_array_equal(maps, np.concatenate([c[0] for c in chunks]))
+        np.testing.assert_array_equal(states, np.concatenate([c[1] for c in chunks]))
+        np.testing.assert_array_equal(actions, np.concatenate([c[2] for c in chunks]))
+        np.testing.assert_array_equal(maps[:7], first)
+        held.append(held_out)
+    for other in held[1:]:  # the held-out draws do not depend on the storage
+        np.testing.assert_array_equal(other, held[0])
+    assert 0 < held[0].sum() < 12
