@@ -88,11 +88,14 @@ def enumerate_situations(
     remaining = [units[u] for u in elimination.remaining]
     order_u = [np.argsort(-unit.probabilities, kind="stable") for unit in remaining]
     sorted_p = [unit.probabilities[o] for unit, o in zip(remaining, order_u, strict=True)]
-    # The probability of each situation and the rank of each remaining unit's choice in it.
-    probs, ranks = k_best_arrays(sorted_p, max_situations)  # (S,), (S, units)
-    actives = np.repeat(elimination.active[None], len(probs), axis=0)  # (S, N)
-    actives[_chosen_items(remaining, order_u, ranks)] = True
-    choices = _chosen_candidates(remaining, order_u, ranks)
+    if remaining:
+        # The probability of each situation and the rank of each remaining unit's choice in it.
+        probs, ranks = k_best_arrays(sorted_p, max_situations)  # (S,), (S, units)
+        actives = np.repeat(elimination.active[None], len(probs), axis=0)  # (S, N)
+        actives[_chosen_items(remaining, order_u, ranks)] = True
+        choices = _chosen_candidates(remaining, order_u, ranks)
+    else:  # the one situation of no choice (what k_best_arrays gives), most views' case
+        probs, actives, choices = [1.0], elimination.active[None].copy(), [{}]
     situations = _situations(ctx, actives, probs, choices, robot_width_m)
     situations.sort(key=lambda s: -s.probability)
     total = math.fsum(s.probability for s in situations)
