@@ -381,8 +381,9 @@ def _base_state(
     labels = components(active.shape[0], rel.i[imp], rel.j[imp])
     und = both & (rel.kind == int(Relation.UNDECIDED))
     li, lj = labels[rel.i[und]], labels[rel.j[und]]
-    pairs = {(int(min(x, y)), int(max(x, y))) for x, y in zip(li, lj, strict=True) if x != y}
-    return labels, pairs
+    apart = li != lj
+    lo, hi = np.minimum(li[apart], lj[apart]), np.maximum(li[apart], lj[apart])
+    return labels, set(zip(lo.tolist(), hi.tolist(), strict=True))
 
 
 def _signature(
@@ -396,18 +397,24 @@ def _signature(
     (``labels``, ``active``: the component label and whether active, of each item)."""
     joined: set[int] = set()
     undecided: set[int] = set()
-    for it in items:
+    # and, for the new obstacles, the items impassable to an active one (anchored) and the
+    # impassable links among them
+    pos = {it: k for k, it in enumerate(items)}
+    anchored: set[int] = set()
+    links: list[tuple[int, int]] = []
+    for k, it in enumerate(items):
         for other, kind in adjacency.get(it, {}).items():
-            if not active[other]:
-                continue
-            lab = labels[other]
-            if kind == _IMP:
-                joined.add(lab)
-            else:
-                undecided.add(lab)
+            if active[other]:
+                if kind == _IMP:
+                    joined.add(labels[other])
+                    anchored.add(k)
+                else:
+                    undecided.add(labels[other])
+            elif kind == _IMP and other in pos:
+                links.append((k, pos[other]))
     undecided -= joined
     changes: set[Change] = set()
-    new = _new_obstacles(items, adjacency, active)
+    new = _unanchored_components(len(items), anchored, links)
     if new:
         changes.add((Effect.NEW, new, new))
     js = sorted(joined)
@@ -431,28 +438,25 @@ def _signature(
     return frozenset(changes)
 
 
-def _new_obstacles(items: tuple[int, ...], adjacency: Adjacency, active: Sequence[bool]) -> int:
-    """How many new obstacles ``items`` make: the components (impassable relations among them)
-    none of whose items is impassable to an active item."""
-    if not items:
-        return 0
-    pos = {it: k for k, it in enumerate(items)}
-    ii: list[int] = []
-    jj: list[int] = []
-    anchored: list[int] = []
-    for it in items:
-        for other, kind in adjacency.get(it, {}).items():
-            if kind != _IMP:
-                continue
-            if active[other]:
-                anchored.append(pos[it])
-            elif other in pos:
-                ii.append(pos[it])
-                jj.append(pos[other])
-    if not ii:  # no links among them: each item is a component of its own
-        return len(items) - len(set(anchored))
-    labels = components(len(items), np.asarray(ii, np.int64), np.asarray(jj, np.int64))
-    return len(set(labels.tolist()) - set(labels[anchored].tolist()))
+def _unanchored_components(n: int, anchored: set[int], links: list[tuple[int, int]]) -> int:
+    """How many new obstacles a choice's ``n`` items make: the components of the impassable
+    ``links`` among them (pairs of positions) none of whose items is in ``anchored``
+    (impassable to an active item); a plain union-find, a choice has a few items."""
+    if not links:  # each item is a component of its own
+        return n - len(anchored)
+    parent = list(range(n))
+
+    def root(x: int) -> int:
+        while parent[x] != x:
+            x = parent[x]
+        return x
+
+    for a, b in links:
+        ra, rb = root(a), root(b)
+        if ra != rb:
+            parent[max(ra, rb)] = min(ra, rb)
+    roots = [root(x) for x in range(n)]
+    return len(set(roots) - {roots[x] for x in anchored})
 
 
 def _spaces(signature: Signature) -> set[tuple[int, int]]:
@@ -461,14 +465,16 @@ def _spaces(signature: Signature) -> set[tuple[int, int]]:
 
 
 def independent_groups(
-    units: list[Unit], elimination: Elimination, adjacency: Adjacency, item_amb: np.ndarray
+    units: list[Unit], elimination: Elimination, rel: SegmentRelations, item_amb: np.ndarray
 ) -> tuple[tuple[int, ...], ...]:
-    """Fig. 9: connected components of units sharing a space or with interacting candidates.
+    """Fig. 9: connected components of units sharing a space or with interacting candidates
+    (two candidates of two units with a non-passable relation: an edge of
+    :func:`candidate_adjacency`).
 
     Args:
         units: The units (Fig. 7).
         elimination: Fig. 8's result (its remaining units and the spaces they affect).
-        adjacency: :func:`candidate_adjacency` of the relations.
+        rel: The relations between items.
         item_amb: (N,) ambiguous index of each item (-1: an unambiguous segment).
 
     Returns:
@@ -477,26 +483,26 @@ def independent_groups(
     remaining = elimination.remaining
     if not remaining:
         return ()
-    pos = {u: k for k, u in enumerate(remaining)}
-    unit_of_amb = {a: u for u in remaining for a in units[u].members}
-    ii: list[int] = []
-    jj: list[int] = []
+    # The position in ``remaining`` of the unit of each item (-1: none), from its segment's.
+    members = [(k, a) for k, u in enumerate(remaining) for a in units[u].members]
+    unit_of_amb = np.full(max(a for _, a in members) + 1, -1, dtype=np.int64)
+    for k, a in members:
+        unit_of_amb[a] = k
+    known = (item_amb >= 0) & (item_amb < unit_of_amb.shape[0])
+    item_unit = np.where(known, unit_of_amb[np.where(known, item_amb, 0)], -1)
+    ui, uj = item_unit[rel.i], item_unit[rel.j]
+    link = (rel.kind != _PAS) & (ui >= 0) & (uj >= 0) & (ui != uj)
+    ii: list[int] = ui[link].tolist()
+    jj: list[int] = uj[link].tolist()
     by_space: dict[tuple[int, int], list[int]] = {}
-    for u in remaining:
+    for k, u in enumerate(remaining):
         for sp in elimination.affected[u]:
-            by_space.setdefault(sp, []).append(pos[u])
-        for items in units[u].items:
-            for it in items:
-                for other in adjacency.get(it, {}):
-                    v = unit_of_amb.get(int(item_amb[other]))
-                    if v is not None and v != u:
-                        ii.append(pos[u])
-                        jj.append(pos[v])
-    for members in by_space.values():
-        ii.extend(members[:-1])
-        jj.extend(members[1:])
+            by_space.setdefault(sp, []).append(k)
+    for chain in by_space.values():
+        ii.extend(chain[:-1])
+        jj.extend(chain[1:])
     labels = components(len(remaining), np.asarray(ii, np.int64), np.asarray(jj, np.int64))
     out: dict[int, list[int]] = {}
-    for u in remaining:
-        out.setdefault(int(labels[pos[u]]), []).extend(units[u].members)
+    for k, u in enumerate(remaining):
+        out.setdefault(int(labels[k]), []).extend(units[u].members)
     return tuple(sorted(tuple(sorted(g)) for g in out.values()))

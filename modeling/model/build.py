@@ -223,7 +223,7 @@ def build_model(
         base_active = np.zeros(items.ends.shape[0], dtype=bool)
         base_active[list(isolation.kept_segments)] = True
         elimination = eliminate_units_of_one_effect(units, rel, adjacency, base_active)
-        groups = independent_groups(units, elimination, adjacency, items.ambiguous)
+        groups = independent_groups(units, elimination, rel, items.ambiguous)
         # Eq. 2: the k most probable situations, with their obstacles, regions and passages.
         situations, residual = enumerate_situations(
             items,

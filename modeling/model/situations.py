@@ -25,9 +25,12 @@ partitions of all situations are made in one compiled pass over (situation, rela
 (:func:`modeling.model.partitions.situation_partitions`) that lists each distinct obstacle once
 (and joins the items active in every situation once), so each is built once; region polygons
 are shared by their relation rows, and width moments are cached per relation row. Their regions
-and passages are made in one more pass: a fused model holds tens of situations, and
-per-situation NumPy calls on a few hundred relations cost more than the work they do (a property
-test holds the situations made together equal to each made alone).
+and passages are made in one more pass, each distinct one once (situations that have the same
+one hold the same record): a fused model holds tens of situations, and per-situation NumPy calls
+on a few hundred relations cost more than the work they do (a property test holds the situations
+made together equal to each made alone). Eq. 2's best-first enumeration is a compiled loop
+(:func:`k_best_arrays`, reference :func:`k_best_reference`), and the situations' items and
+choices are taken from its ranks in array operations.
 
 Frames: world, metres; probabilities in [0, 1].
 """
@@ -40,6 +43,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from modeling.model._kernels import kbest as _kbest_kernel
 from modeling.model.ambiguity import Elimination, Unit
 from modeling.model.gaps import Relation, gap_width_moments
 from modeling.model.items import Items
@@ -49,7 +53,7 @@ from modeling.model.records import CriticalRegion, Obstacle, Passage, Situation
 from modeling.model.relations import SegmentRelations
 from modeling.types import FloatArray
 
-__all__ = ["enumerate_situations", "k_best"]
+__all__ = ["enumerate_situations", "k_best", "k_best_arrays", "k_best_reference"]
 
 _IMP = int(Relation.IMPASSABLE)
 _UND = int(Relation.UNDECIDED)
@@ -84,31 +88,61 @@ def enumerate_situations(
     remaining = [units[u] for u in elimination.remaining]
     order_u = [np.argsort(-unit.probabilities, kind="stable") for unit in remaining]
     sorted_p = [unit.probabilities[o] for unit, o in zip(remaining, order_u, strict=True)]
-    # Items and choice of each remaining unit's k-th most probable candidate rank.
-    ranked = [
-        [(unit.items[k], unit.choices[k]) for k in o.tolist()]
-        for unit, o in zip(remaining, order_u, strict=True)
-    ]
-    best = k_best(sorted_p, max_situations)
-    actives = np.repeat(elimination.active[None], len(best), axis=0)  # (S, N)
-    at_sit: list[int] = []  # the situation and item of each chosen candidate
-    at_item: list[int] = []
-    probs: list[float] = []
-    choices: list[dict[int, int]] = []
-    for k, (prob, state) in enumerate(best):
-        choice: dict[int, int] = {}
-        for pos, rank in enumerate(state):
-            unit_items, cands = ranked[pos][rank]
-            at_item.extend(unit_items)
-            at_sit.extend([k] * len(unit_items))
-            choice.update(cands)
-        probs.append(prob)
-        choices.append(choice)
-    actives[at_sit, at_item] = True
+    if remaining:
+        # The probability of each situation and the rank of each remaining unit's choice in it.
+        probs, ranks = k_best_arrays(sorted_p, max_situations)  # (S,), (S, units)
+        actives = np.repeat(elimination.active[None], len(probs), axis=0)  # (S, N)
+        actives[_chosen_items(remaining, order_u, ranks)] = True
+        choices = _chosen_candidates(remaining, order_u, ranks)
+    else:  # the one situation of no choice (what k_best_arrays gives), most views' case
+        probs, actives, choices = [1.0], elimination.active[None].copy(), [{}]
     situations = _situations(ctx, actives, probs, choices, robot_width_m)
     situations.sort(key=lambda s: -s.probability)
     total = math.fsum(s.probability for s in situations)
     return situations, max(0.0, 1.0 - total)
+
+
+def _chosen_items(
+    remaining: list[Unit], order_u: list[np.ndarray], ranks: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(situation, item)`` of every item of the candidates the situations choose: situation
+    ``s`` takes, of remaining unit ``u``, the choice of rank ``ranks[s, u]`` in ``order_u[u]``
+    (the unit's choices, most probable first)."""
+    n_sit, n_units = ranks.shape
+    items = [unit.items[k] for unit, o in zip(remaining, order_u, strict=True) for k in o.tolist()]
+    counts = np.array([len(x) for x in items], dtype=np.int64)  # per (unit, rank)
+    flat = np.array([x for its in items for x in its], dtype=np.int64)
+    first_rank = np.zeros(n_units, dtype=np.int64)  # where each unit's choices start
+    np.cumsum(np.array([o.shape[0] for o in order_u[:-1]], dtype=np.int64), out=first_rank[1:])
+    chosen = (first_rank[None, :] + ranks).reshape(-1)  # (S * units,) by situation, then unit
+    n = counts[chosen]
+    starts = (np.cumsum(counts) - counts)[chosen]
+    # each chosen choice's items: its start in ``flat``, then the next ones
+    at = np.repeat(starts - (np.cumsum(n) - n), n) + np.arange(int(n.sum()))
+    return np.repeat(np.arange(n_sit * n_units) // max(n_units, 1), n), flat[at]
+
+
+def _chosen_candidates(
+    remaining: list[Unit], order_u: list[np.ndarray], ranks: np.ndarray
+) -> list[dict[int, int]]:
+    """Each situation's ``{ambiguous index: candidate index}`` (sorted by ambiguous index) of
+    the choices ``ranks`` (see :func:`_chosen_items`): the members of every remaining unit (no
+    two units share one), with the candidate of its chosen choice."""
+    members = sorted(a for unit in remaining for a in unit.members)
+    if not members:
+        return [{} for _ in range(ranks.shape[0])]
+    # Per unit, its choices' candidates as rows (most probable first), columns its members.
+    values: list[int] = []
+    column: dict[int, tuple[int, int, int, int]] = {}  # member: unit, table start, width, col
+    for u, (unit, o) in enumerate(zip(remaining, order_u, strict=True)):
+        own = sorted(unit.members)
+        for c, a in enumerate(own):
+            column[a] = (u, len(values), len(own), c)
+        values.extend(unit.choices[k][a] for k in o.tolist() for a in own)
+    unit_of, start, width, col = np.array([column[a] for a in members], dtype=np.int64).T
+    at = start[None, :] + ranks[:, unit_of] * width[None, :] + col[None, :]  # (S, members)
+    table = np.array(values, dtype=np.int64)[at].tolist()
+    return [dict(zip(members, row, strict=True)) for row in table]
 
 
 class _Context:
@@ -230,45 +264,57 @@ def _narrowest_points(ctx: _Context, rows: np.ndarray, flip: np.ndarray) -> list
 
 
 def _regions(
-    ctx: _Context, n_sit: int, groups: FlipGroups, polygons: list[FloatArray]
+    ctx: _Context, n_sit: int, groups: FlipGroups, polygons: list[FloatArray], which: list[int]
 ) -> list[list[CriticalRegion]]:
     """Each situation's critical regions: one per obstacle pair with undecided relations
-    between them (``groups``, each with its polygon in ``polygons``)."""
+    between them (``groups``; the rows of group ``g`` are the ``which[g]``-th distinct rows,
+    whose polygon is ``polygons[which[g]]``).
+
+    Situations share most regions (the same rows between the same obstacle pair): each is made
+    once, and the situations that have it hold the same record."""
     rows, starts, s, lo, hi, flip = groups
     out: list[list[CriticalRegion]] = [[] for _ in range(n_sit)]
     if rows.size == 0:
         return out
+    keys = list(zip(which, lo.tolist(), hi.tolist(), flip.tolist(), strict=True))
+    index: dict[tuple[int, int, int, bool], int] = {}
+    first: list[int] = []  # the first group of each distinct region
+    for g, key in enumerate(keys):
+        if key not in index:
+            index[key] = len(first)
+            first.append(g)
+    at = np.array(first, dtype=np.int64)
     rel = ctx.rel
-    narrowest = rows[starts]
+    narrowest = rows[starts[at]]
     w_mean, w_std = ctx.moments(narrowest)
     rel_lines = ctx.links[rows]
     rel_lines.setflags(write=False)
     rows_list = rows.tolist()
-    for k, a_, b_, poly, wm, ws, p_, nw, s0, s1 in zip(
-        s.tolist(),
-        lo.tolist(),
-        hi.tolist(),
-        polygons,
-        w_mean,
-        w_std,
-        rel.p_passable[narrowest].tolist(),
-        _narrowest_points(ctx, narrowest, flip),
-        starts.tolist(),
-        _stops(groups),
-        strict=True,
-    ):
-        out[k].append(
-            CriticalRegion(
-                obstacles=(a_, b_),
-                polygon=poly,
-                width_mean_m=wm,
-                width_std_m=ws,
-                p_passable=p_,
-                narrowest=nw,
-                relations=tuple(rows_list[s0:s1]),
-                relation_lines=rel_lines[s0:s1],
-            )
+    stops = _stops(groups)
+    made = [
+        CriticalRegion(
+            obstacles=(a_, b_),
+            polygon=polygons[d],
+            width_mean_m=wm,
+            width_std_m=ws,
+            p_passable=p_,
+            narrowest=nw,
+            relations=tuple(rows_list[s0 : stops[g]]),
+            relation_lines=rel_lines[s0 : stops[g]],
         )
+        for (d, a_, b_, _), g, s0, wm, ws, p_, nw in zip(
+            index,
+            at.tolist(),
+            starts[at].tolist(),
+            w_mean,
+            w_std,
+            rel.p_passable[narrowest].tolist(),
+            _narrowest_points(ctx, narrowest, flip[at]),
+            strict=True,
+        )
+    ]
+    for k, key in zip(s.tolist(), keys, strict=True):
+        out[k].append(made[index[key]])
     return out
 
 
@@ -311,7 +357,7 @@ def _situations(
     robot_width_m: float,
 ) -> list[Situation]:
     """Obstacles, critical regions and passages of each situation whose items are ``actives``
-    ((S, N) bool, or S rows).
+    ((S, N) bool, or S rows) and whose choices are ``choices`` (each sorted by ambiguous index).
 
     Three passes: the partitions of all situations (each distinct obstacle once), then one batch
     for the distinct obstacles and region polygons, then the situations' regions and passages,
@@ -323,7 +369,7 @@ def _situations(
     parts = ctx.partitions(actives)
     region_rows, which = _distinct(_group_rows(parts.und))
     obstacles, region_polygons = ctx.build(parts, region_rows)
-    regions = _regions(ctx, n_sit, parts.und, [region_polygons[k] for k in which])
+    regions = _regions(ctx, n_sit, parts.und, region_polygons, which)
     passages = _passages(ctx, n_sit, parts.pas)
     of_situations = [obstacles[u] for u in parts.obstacle.tolist()]
     first = parts.first_obst.tolist()
@@ -332,7 +378,7 @@ def _situations(
             probability=float(probability),
             obstacles=tuple(of_situations[first[k] : first[k + 1]]),
             critical_regions=tuple(r),
-            choice=dict(sorted(choice.items())),
+            choice=choice,
             passages=tuple(ps),
             robot_width_m=robot_width_m,
         )
@@ -343,7 +389,44 @@ def _situations(
 
 
 def k_best(probs: list[np.ndarray], k: int) -> list[tuple[float, tuple[int, ...]]]:
-    """The ``k`` most probable joint choices of independent factors, best first (exact products).
+    """The ``k`` most probable joint choices of independent factors, best first (exact
+    products): :func:`k_best_arrays` as ``(probability, ranks)`` pairs, as
+    :func:`k_best_reference` gives them."""
+    prob, ranks = k_best_arrays(probs, k)
+    return list(zip(prob, map(tuple, ranks.tolist()), strict=True))
+
+
+def k_best_arrays(probs: list[np.ndarray], k: int) -> tuple[list[float], np.ndarray]:
+    """:func:`k_best_reference` by a compiled loop
+    (:func:`modeling.model._kernels.kbest.k_best`; the same results, as arrays).
+
+    Args:
+        probs: One (m_u,) array per factor, sorted descending.
+        k: How many to return (>= 1).
+
+    Returns:
+        ``(probabilities, ranks)``: the probabilities, most probable first, and (k', n) int64
+        ``ranks[s, u]`` indexing ``probs[u]``.
+    """
+    n = len(probs)
+    plist = [p.tolist() for p in probs]
+    logs = [[math.log(max(x, 1e-300)) for x in p] for p in plist]
+    seq = sorted((u for u in range(n) if len(plist[u]) > 1), key=lambda u: logs[u][0] - logs[u][1])
+    start = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.array([len(p) for p in plist], dtype=np.int64), out=start[1:])
+    factors = _kbest_kernel.Factors(
+        probs=np.array([x for p in plist for x in p], dtype=np.float64),
+        logs=np.array([x for lg in logs for x in lg], dtype=np.float64),
+        start=start,
+        seq=np.array(seq, dtype=np.int64),
+    )
+    best = _kbest_kernel.k_best(factors, -math.fsum(lg[0] for lg in logs), int(k))
+    return best.prob.tolist(), best.ranks
+
+
+def k_best_reference(probs: list[np.ndarray], k: int) -> list[tuple[float, tuple[int, ...]]]:
+    """The readable reference of :func:`k_best` (equal results): the ``k`` most probable joint
+    choices of independent factors, best first (exact products).
 
     Best-first search in which every joint choice has exactly one parent that is at least as
     probable: factors are ordered by the loss of their first step down (``p[1] / p[0]``,

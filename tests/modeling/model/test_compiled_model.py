@@ -235,3 +235,32 @@ def test_situations_from_the_compiled_partitions_equal_the_readable_ones(case: i
     assert _model_record(got) == _model_record(want)
     if case == 1:
         assert len(got.situations) == 64 and len(got.relations) > 4000
+
+
+def _random_factors(rng: np.random.Generator) -> list[np.ndarray]:
+    """Up to 12 factors of 1-5 choices each, sorted descending, with ties and tiny ones."""
+    out = []
+    for _ in range(int(rng.integers(0, 13))):
+        m = int(rng.integers(1, 6))
+        kind = rng.integers(0, 3)
+        if kind == 0:
+            w = rng.uniform(0.01, 1.0, m)
+        elif kind == 1:  # ties
+            w = np.repeat(rng.uniform(0.1, 1.0, 1), m)
+        else:  # some (almost) zero
+            w = np.where(rng.random(m) < 0.5, 1e-320, rng.uniform(0.01, 1.0, m))
+        out.append(np.sort(w / w.sum())[::-1])
+    return out
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_k_best_kernel_equals_the_reference(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    probs = _random_factors(rng)
+    for k in (1, 2, 7, 64, 200):
+        got = situations_module.k_best(probs, k)
+        want = situations_module.k_best_reference(probs, k)
+        assert [s for _, s in got] == [s for _, s in want]
+        assert [np.float64(p).tobytes() for p, _ in got] == [
+            np.float64(p).tobytes() for p, _ in want
+        ]
