@@ -251,7 +251,7 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         self.observation_space = cast(
             spaces.Space[Obs], observation_space(self.config.observation, self.rig)
         )
-        self._fixed_scene: Scene | None = None if self.config.is_generated else self._load_scene()
+        self._fixed_scene: Scene | None = self._map_scene()
         self.scene: Scene | None = None
         self.world: World | None = None
         self.model: EnvironmentModel | None = None
@@ -508,7 +508,12 @@ class StereoNavEnv(gym.Env[Obs, NDArray[np.float32]]):
         """Draw the next resets' scenes from ``scenario`` (a map or family; a curriculum's next
         stage): the spaces stay, the episode under way goes on. ``ValueError`` for a bad name."""
         self.config = dataclasses.replace(self.config, scenario=scenario)
-        self._fixed_scene = None if self.config.is_generated else self._load_scene()
+        self._fixed_scene = self._map_scene()
+
+    def _map_scene(self) -> Scene | None:
+        """The configured map's scene, loaded once for every reset; ``None`` for a family (each
+        reset draws its own)."""
+        return None if self.config.is_generated else self._load_scene()
 
     def _load_scene(self, seed: int = 0) -> Scene:
         """The configured scenario's scene (a family's drawn from ``seed``), for the configured

@@ -370,50 +370,37 @@ class _Dataset:
         self._rng = np.random.default_rng(seed)
         self._capacity = max(int(capacity), 0)
         self._n = 0
-        self._maps: NDArray[np.uint8] | None = None
-        self._states = np.zeros((0, 0), dtype=np.float32)
-        self._actions = np.zeros((0, 3), dtype=np.float32)
-        self._held_out = np.zeros(0, dtype=np.bool_)
-
-    def _reserve(self, maps: NDArray[np.uint8], states: NDArray[np.float32], n: int) -> None:
-        """Room for ``n`` samples shaped like ``maps`` and ``states``."""
-        if self._maps is not None and n <= self._maps.shape[0]:
-            return
-        size = max(n, self._capacity, 2 * (0 if self._maps is None else self._maps.shape[0]))
-        grown_maps = np.empty((size, *maps.shape[1:]), dtype=np.uint8)
-        grown_states = np.empty((size, *states.shape[1:]), dtype=np.float32)
-        grown_actions = np.empty((size, 3), dtype=np.float32)
-        grown_held = np.empty(size, dtype=np.bool_)
-        if self._maps is not None:
-            grown_maps[: self._n] = self._maps[: self._n]
-            grown_states[: self._n] = self._states[: self._n]
-            grown_actions[: self._n] = self._actions[: self._n]
-            grown_held[: self._n] = self._held_out[: self._n]
-        self._maps, self._states = grown_maps, grown_states
-        self._actions, self._held_out = grown_actions, grown_held
+        # maps, states, actions, held-out mask: one row per sample (None before the first)
+        self._columns: tuple[NDArray[Any], ...] | None = None
 
     def add(self, maps: NDArray[np.uint8], states: NDArray[np.float32], actions: Any) -> None:
-        maps = np.asarray(maps, dtype=np.uint8)
-        states = np.asarray(states, dtype=np.float32)
         actions = np.asarray(actions, dtype=np.float32).reshape(-1, 3)
         k = actions.shape[0]
-        self._reserve(maps, states, self._n + k)
-        assert self._maps is not None
-        part = slice(self._n, self._n + k)
-        self._maps[part] = maps
-        self._states[part] = states
-        self._actions[part] = actions
-        self._held_out[part] = self._rng.random(k) < self.validation_share
-        self._n += k
+        rows: tuple[NDArray[Any], ...] = (
+            np.asarray(maps, dtype=np.uint8),
+            np.asarray(states, dtype=np.float32),
+            actions,
+            self._rng.random(k) < self.validation_share,
+        )
+        n = self._n + k
+        if self._columns is None or n > self._columns[0].shape[0]:
+            size = max(n, self._capacity, 2 * self._n)
+            grown = tuple(np.empty((size, *r.shape[1:]), dtype=r.dtype) for r in rows)
+            for new, old in zip(grown, self._columns or (), strict=False):
+                new[: self._n] = old[: self._n]
+            self._columns = grown
+        for column, r in zip(self._columns, rows, strict=True):
+            column[self._n : n] = r
+        self._n = n
 
     def arrays(
         self,
     ) -> tuple[NDArray[np.uint8], NDArray[np.float32], NDArray[np.float32], NDArray[np.bool_]]:
         """Maps, states, actions and the held-out mask of every sample (views, not copies)."""
-        if self._maps is None:
+        if self._columns is None:
             raise ValueError("the dataset holds no samples yet")
-        n = self._n
-        return self._maps[:n], self._states[:n], self._actions[:n], self._held_out[:n]
+        maps, states, actions, held_out = (c[: self._n] for c in self._columns)
+        return maps, states, actions, held_out
 
     def __len__(self) -> int:
         return self._n
@@ -616,7 +603,6 @@ def train_imitation(
 
     t0 = time.perf_counter()
     torch.manual_seed(cfg.seed)
-    torch.set_num_threads(cfg.torch_threads)
     rng = np.random.default_rng(cfg.seed)
     out = pathlib.Path(cfg.out_dir)
     out.mkdir(parents=True, exist_ok=True)

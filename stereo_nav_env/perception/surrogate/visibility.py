@@ -50,7 +50,7 @@ from stereo_nav_env.rendering.shading import (
     face_shades,
     grey_levels,
 )
-from stereo_nav_env.sim.scenes import DetailKind, Obstacle, ObstacleKind, Scene
+from stereo_nav_env.sim.scenes import DetailKind, Obstacle, ObstacleKind, Scene, outline_sides
 
 __all__ = [
     "PULL_BACK_M",
@@ -164,7 +164,7 @@ class SceneEdges:
                 polys.append(shapely.Polygon(fp))
                 z_min.append(part.z_min_m)
                 z_max.append(part.z_max_m)
-                side, n = _sides(fp)
+                side, _, n = outline_sides(fp)
                 starts.append(fp)
                 side_n.append(n)
                 base = np.asarray(part.color, dtype=np.float64)
@@ -236,15 +236,6 @@ class SceneEdges:
         )
 
 
-def _sides(fp: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """The sides of the counter-clockwise outline ``fp`` (k, 2), side ``k`` from corner ``k`` to
-    ``k + 1`` (k, 2), and their outward unit normals (k, 2)."""
-    side = np.roll(fp, -1, axis=0) - fp
-    n = np.stack([side[:, 1], -side[:, 0]], axis=1)
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
-    return side, n
-
-
 def _detail_floor_lines(
     ob: Obstacle,
     first_corner: int,
@@ -270,7 +261,7 @@ def _detail_floor_lines(
     for part in ob.detail_parts:
         starts.append(strip_first)
         strip_first += part.footprint.shape[0]
-    side, n = _sides(fp)
+    side, _, n = outline_sides(fp)
     for face in range(k):
         on = sorted(
             (f.offset_m, j)

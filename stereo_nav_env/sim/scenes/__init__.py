@@ -56,6 +56,7 @@ from stereo_nav_env.sim.scenes.types import (
     Obstacle,
     ObstacleKind,
     Scene,
+    outline_sides,
 )
 
 __all__ = [
@@ -88,6 +89,7 @@ __all__ = [
     "load_scenario",
     "make_obstacle",
     "oriented_rect",
+    "outline_sides",
     "plain_surfaces",
     "save_map",
     "scene_from_json",

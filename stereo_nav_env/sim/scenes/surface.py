@@ -39,7 +39,6 @@ from dataclasses import replace
 import numpy as np
 from shapely.geometry import Point, Polygon, box
 
-from modeling.types import FloatArray
 from stereo_nav_env.sim.scenes.parts import rect_frame, shelf_layout
 from stereo_nav_env.sim.scenes.types import (
     Color,
@@ -48,6 +47,7 @@ from stereo_nav_env.sim.scenes.types import (
     Obstacle,
     ObstacleKind,
     Scene,
+    outline_sides,
 )
 
 __all__ = [
@@ -101,17 +101,10 @@ def _feature(
     )
 
 
-def _sides(fp: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Side lengths (k,), middles (k, 2) and outward unit normals (k, 2) of a CCW outline."""
-    d = np.roll(fp, -1, axis=0) - fp
-    length = np.hypot(d[:, 0], d[:, 1])
-    normal = np.stack([d[:, 1], -d[:, 0]], axis=1) / np.maximum(length, 1e-12)[:, None]
-    return length, fp + d / 2.0, normal
-
-
 def _wall_detail(rng: np.random.Generator, ob: Obstacle, inside: Polygon) -> list[FaceFeature]:
     out: list[FaceFeature] = []
-    length, middle, normal = _sides(ob.footprint)
+    side, length, normal = outline_sides(ob.footprint)
+    middle = ob.footprint + side / 2.0
     h = ob.height_m
     for k in range(ob.footprint.shape[0]):
         L = float(length[k])
@@ -143,7 +136,7 @@ def _wall_detail(rng: np.random.Generator, ob: Obstacle, inside: Polygon) -> lis
 
 def _box_detail(rng: np.random.Generator, ob: Obstacle) -> list[FaceFeature]:
     out: list[FaceFeature] = []
-    length, _, _ = _sides(ob.footprint)
+    _, length, _ = outline_sides(ob.footprint)
     h = ob.height_m
     for k in range(ob.footprint.shape[0]):
         L = float(length[k])

@@ -54,6 +54,7 @@ __all__ = [
     "Obstacle",
     "ObstacleKind",
     "Scene",
+    "outline_sides",
 ]
 
 Color = tuple[float, float, float]
@@ -149,6 +150,16 @@ def _heights(z_min_m: object, z_max_m: object) -> tuple[float, float]:
     if z0 < 0 or z1 <= z0:
         raise ValueError(f"z_min_m/z_max_m must satisfy 0 <= z_min_m < z_max_m, got {z0}, {z1}")
     return z0, z1
+
+
+def outline_sides(fp: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The sides of the counter-clockwise outline ``fp`` (k, 2): side ``k`` runs from corner
+    ``k`` to ``k + 1``. Returns their vectors (k, 2), lengths (k,) and outward unit normals
+    (k, 2)."""
+    side = np.roll(fp, -1, axis=0) - fp
+    length = np.linalg.norm(side, axis=1)
+    normal = np.stack([side[:, 1], -side[:, 0]], axis=1) / np.maximum(length, 1e-12)[:, None]
+    return side, length, normal
 
 
 def _vector(value: Any, field: str, n: int) -> tuple[float, ...]:
@@ -313,7 +324,7 @@ class Obstacle:
         detail = tuple(self.detail)
         fp = self.footprint
         k = fp.shape[0]
-        sides = np.linalg.norm(np.roll(fp, -1, axis=0) - fp, axis=1)
+        _, sides, _ = outline_sides(fp)
         for i, feature in enumerate(detail):
             f = f"detail[{i}]"
             if not isinstance(feature, FaceFeature):
