@@ -22,7 +22,9 @@ the world frame:
   distribution of their narrowest relation. A new observation of the same region replaces the
   estimate when it is not much less certain (a closer look narrows it); a look at a remembered gate
   that finds both its sides but no critical region between them decides it (passable when they are
-  different obstacles, impassable when they merged).
+  different obstacles, impassable when they merged). A bump near a gate closes it, unless the
+  robot has driven through it: a gate whose narrowest relation the robot's centre crossed is
+  passable for good (a bump just beyond it, in a pocket, must not close the way back out).
 
 Frames and units: world, metres; a grid cell ``(row, col)`` is ``(y, x)``.
 """
@@ -384,6 +386,8 @@ class Gate:
         viewed_distance_m: Smallest distance from which it has been in view since that estimate.
         last_step: Step of the last observation that matched it.
         failed: The robot bumped trying to cross it (then ``p_passable`` is 0).
+        crossed: The robot has driven through it (then ``p_passable`` is 1, and a bump near it
+            does not close it).
     """
 
     ends: FloatArray
@@ -395,6 +399,7 @@ class Gate:
     viewed_distance_m: float
     last_step: int = 0
     failed: bool = False
+    crossed: bool = False
 
     @property
     def midpoint(self) -> FloatArray:
@@ -487,7 +492,7 @@ class GateHistory:
             g = self.gates[k]
             g.last_step = step
             g.viewed_distance_m = min(g.viewed_distance_m, dist)
-            if g.failed:
+            if g.failed or g.crossed:
                 continue
             if float(reg.width_std_m) <= self.worse_factor * g.width_std_m:
                 g.ends = ends.copy()
@@ -518,7 +523,7 @@ class GateHistory:
             for ob in sit.obstacles
         ]
         for k, g in enumerate(self.gates):
-            if k in matched or g.failed:
+            if k in matched or g.failed or g.crossed:
                 continue
             mid = g.midpoint
             rel = mid - vp[:2]
@@ -543,11 +548,28 @@ class GateHistory:
             g.seen_distance_m = dist
             g.last_step = step
 
+    def note_motion(self, start_xy: NDArray[np.floating], end_xy: NDArray[np.floating]) -> None:
+        """The robot's centre moved from ``start_xy`` to ``end_xy``: a gate whose narrowest
+        relation that motion crosses is passable (the robot fitted through it)."""
+        motion = np.stack([start_xy, end_xy]).astype(np.float64).reshape(2, 2)
+        open_gates = [g for g in self.gates if not g.crossed]
+        if not open_gates or float(np.hypot(*(motion[1] - motion[0]))) < 1e-9:
+            return
+        lines = shapely.linestrings(np.stack([g.ends for g in open_gates]))
+        for g, crossed in zip(
+            open_gates, shapely.crosses(shapely.linestrings(motion), lines), strict=True
+        ):
+            if crossed:
+                g.crossed, g.failed, g.p_passable = True, False, 1.0
+
     def mark_failed(self, xy: NDArray[np.floating], radius_m: float) -> list[int]:
-        """Gates whose midpoint is within ``radius_m`` of ``xy`` become impassable (a bump)."""
+        """Gates whose midpoint is within ``radius_m`` of ``xy`` become impassable (a bump),
+        except those the robot has driven through."""
         out = []
         p = np.asarray(xy, dtype=np.float64).reshape(2)
         for k, g in enumerate(self.gates):
+            if g.crossed:
+                continue
             if float(np.hypot(*(g.midpoint - p))) <= radius_m and not g.failed:
                 g.failed = True
                 g.p_passable = 0.0

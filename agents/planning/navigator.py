@@ -73,6 +73,7 @@ class ModelBasedAgent(Agent):
         self.escaping = False
         self._since_plan = 0
         self._look_steps = 0
+        self._last_xy = np.zeros(2)
 
     def _reset(self, seed: int | None) -> None:
         limits = control_limits(self.env)
@@ -96,6 +97,7 @@ class ModelBasedAgent(Agent):
         self.escaping = False
         self._since_plan = 0
         self._look_steps = 0
+        self._last_xy = np.array([x, y])
 
     def _act(self, obs: Any, info: dict[str, Any]) -> NDArray[np.floating]:
         assert self.core is not None and self._driver is not None and self._recovery is not None
@@ -103,6 +105,8 @@ class ModelBasedAgent(Agent):
         pose = robot_pose(self.env)
         x, y, heading, _ = pose
         core.observe(model_of(self.env, info), self.steps, fused=memory_model_of(info))
+        core.gates.note_motion(self._last_xy, np.array([x, y]))
+        self._last_xy = np.array([x, y])
         replan = self.decision is None or self._since_plan >= cfg.replan_every
         goal_distance_m = float(np.hypot(*(np.array([x, y]) - core.goal)))
         events = recovery.update(

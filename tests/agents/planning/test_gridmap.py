@@ -99,6 +99,28 @@ def test_gate_history_matches_and_keeps_the_sharper_estimate() -> None:
     assert gate.failed and gate.p_passable == 0.0
 
 
+def test_a_gate_the_robot_drove_through_stays_passable() -> None:
+    """Crossing a gate's narrowest relation proves it passable: later views do not re-estimate it
+    and a bump beside it (the robot stuck just beyond) does not close it; a gate not crossed is
+    closed by the same bump."""
+    segs = wall_segments(4.0, [(0.5, 1.74), (2.26, 3.5)], 0.1)
+    gates = GateHistory()
+    gates.update(model_of(segs, (0.0, 2.0, 0.0)), step=0)
+    (gate,) = gates.gates
+    assert 0.05 < gate.p_passable < 0.95  # undecided: 0.52 m for the 0.5 m robot
+    gates.note_motion(np.array([3.0, 2.0]), np.array([3.9, 2.05]))  # up to it, not through
+    assert not gate.crossed and gate.p_passable < 0.95
+    gates.note_motion(np.array([3.9, 2.05]), np.array([4.1, 2.1]))
+    assert gate.crossed and not gate.failed and gate.p_passable == 1.0
+    gates.update(model_of(segs, (2.5, 2.0, 0.0)), step=1)  # a new view does not undo it
+    assert gate.p_passable == 1.0
+    assert gates.mark_failed(np.array([4.3, 2.0]), 0.6) == [] and not gate.failed
+    other = GateHistory()
+    other.update(model_of(segs, (0.0, 2.0, 0.0)), step=0)
+    other.note_motion(np.array([3.0, 2.0]), np.array([3.9, 2.05]))
+    assert other.mark_failed(np.array([4.3, 2.0]), 0.6) == [0]
+
+
 def _wall_with_one_gap() -> tuple[GridSpec, OccupancyMap, GateHistory]:
     """A 6 m x 4 m grid, its map and gates after one view of a wall at x = 3 with a 0.52 m gap
     (an undecided gate for the 0.5 m robot) seen from (1, 2)."""
