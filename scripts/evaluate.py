@@ -4,8 +4,7 @@
         [--seed S]
         [--json FILE] [--markdown FILE] [--plot FILE] [--details FILE] [--scenario FAMILY]
         [--families F [F ...]] [--max-steps N] [--workers K] [--terminate-on-collision]
-        [--perception P] [--tilt RAD] [--fused-range M] [--[no-]ground-lines]
-        [--surface-detail]
+        [--perception P] [--tilt RAD] [--fused-range M] [--ground-lines] [--surface-detail]
 
 ``--split dev`` (the default: seed 0 unless ``--seed``) runs suite seeds for tuning and diagnosis;
 ``--split test`` (seed 900000 unless ``--seed``) runs the seeds reserved for reported figures,
@@ -125,11 +124,10 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
     )
     parser.add_argument(
         "--ground-lines",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="whether the env's lowest near-horizontal image lines enter as floor segments "
-        "(EnvConfig.ground_lines, modeling.stereo.ground_lines; default: the env's, on for the "
-        "perceptions that have them: stereo, stereo_means and surrogate)",
+        action="store_true",
+        help="the env's lowest near-horizontal image lines enter as floor segments "
+        "(EnvConfig.ground_lines, modeling.stereo.ground_lines; perceptions stereo, "
+        "stereo_means and surrogate)",
     )
     parser.add_argument(
         "--surface-detail",
@@ -147,7 +145,7 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
             "perception": args.perception,
         }
         | ({"terminate_on_collision": True} if args.terminate_on_collision else {})
-        | ({"ground_lines": args.ground_lines} if args.ground_lines is not None else {})
+        | ({"ground_lines": True} if args.ground_lines else {})
         | ({"surface_detail": True} if args.surface_detail else {})
         | ({"camera": {"tilt_rad": args.tilt}} if args.tilt is not None else {}),
         navigator={"fused_range_m": args.fused_range} if args.fused_range > 0.0 else {},

@@ -350,13 +350,8 @@ class EnvConfig:
             between them (:mod:`modeling.stereo.faces`, an addition to the paper's pipeline).
         ground_lines: Whether the image's lowest near-horizontal lines enter as floor segments
             where they meet the floor (:mod:`modeling.stereo.ground_lines`, an addition to the
-            paper's pipeline: a face seen face-on, which segment stereo cannot match, is
-            measured where it meets the floor; perceptions ``stereo`` and ``stereo_means``, and
-            ``surrogate``, which imitates those lines from the true scene). ``None`` (the
-            default): on exactly for those perceptions (since issue 42: on the dev split it cut
-            every scripted agent's collisions and cost none of them a success,
-            ``docs/evaluation.md``); ``False``: the paper's pipeline alone. Resolved to a bool
-            on construction.
+            paper's pipeline; off by default; perceptions ``stereo`` and ``stereo_means``, and
+            ``surrogate``, which imitates those lines from the true scene).
         surface_detail: Whether the faces of walls, boxes and bookshelves carry surface detail
             (:mod:`stereo_nav_env.sim.scenes.surface`: panel seams, door frames, cabinet
             fronts, book spines, drawn per scene from its seed; issue 42), which the stereo
@@ -403,7 +398,7 @@ class EnvConfig:
     eps: float = 0.05
     model_max_situations: int = 64
     close_faces: bool = True
-    ground_lines: bool | None = None
+    ground_lines: bool = False
     surface_detail: bool = False
     perception: PerceptionName = PerceptionName.STEREO
     memory: bool | None = None
@@ -429,6 +424,7 @@ class EnvConfig:
         integer(self.stuck_steps, "stuck_steps", low=0)
         number(self.stuck_progress_m, "stuck_progress_m", low=0.0)
         boolean(self.close_faces, "close_faces")
+        boolean(self.ground_lines, "ground_lines")
         boolean(self.surface_detail, "surface_detail")
         boolean(self.diagnostics, "diagnostics")
         boolean(self.info_models, "info_models")
@@ -452,9 +448,6 @@ class EnvConfig:
                 f"observation_mode {self.observation.observation_mode.value!r} observes the "
                 "memory: memory must be True"
             )
-        if self.ground_lines is None:  # on wherever the perception has image lines
-            object.__setattr__(self, "ground_lines", perception.has_ground_lines)
-        boolean(self.ground_lines, "ground_lines")
         if not perception.has_ground_lines and self.ground_lines:
             with_lines = [p.value for p in PerceptionName if p.has_ground_lines]
             raise ValueError(

@@ -172,7 +172,7 @@ class StereoPerception(Perception):
             right,
             cfg.rig,
             head_pose,
-            ground_lines=bool(cfg.ground_lines),
+            ground_lines=cfg.ground_lines,
             at_face_value=self.at_face_value,
             stopwatch=watch,
             **self.model_settings(),

@@ -2,8 +2,7 @@
 
 The digests below were computed on main before surface detail existed (commit 9b9c767, the
 branch point), by the same code: the scene mesh the renderer draws (plain arithmetic, the same
-on any machine) and 20 surrogate steps of seeded random actions (observations and rewards; with
-``ground_lines`` off, the default then). A
+on any machine) and 20 surrogate steps of seeded random actions (observations and rewards). A
 rendered pair and the stereo's observations depend on the machine's rasteriser and compiled
 kernels, so they are compared within the run instead: the world with the switch off renders
 and observes exactly as the detailed world with its detail taken away.
@@ -75,8 +74,7 @@ def test_plain_rendered_pair_is_the_detailed_one_without_detail(rig: StereoRig) 
 
 
 def test_plain_surrogate_observations_are_mains() -> None:
-    rollout = _rollout(20, scenario="office", perception="surrogate", ground_lines=False)
-    assert rollout == MAIN["surrogate"]
+    assert _rollout(20, scenario="office", perception="surrogate") == MAIN["surrogate"]
 
 
 def test_plain_stereo_observations_ignore_the_detail_generator(monkeypatch) -> None:

@@ -410,6 +410,6 @@ class SurrogatePerception(Perception):
             head_pose,
             rng,
             stopwatch=watch,
-            ground_lines=bool(self.config.ground_lines),
+            ground_lines=self.config.ground_lines,
             **self.model_settings(),
         )

@@ -238,12 +238,8 @@ def test_perception_is_a_validated_config_field() -> None:
         EnvConfig.from_kwargs(perception="lidar")
     with pytest.raises(ValueError, match="observation_mode"):
         EnvConfig.from_kwargs(perception="surrogate", observation_mode="images")
-    # ground_lines defaults to on wherever the perception has image lines, off where it has none
-    assert EnvConfig().ground_lines is True
-    assert EnvConfig.from_kwargs(perception="surrogate").ground_lines is True
-    assert EnvConfig.from_kwargs(perception="truth").ground_lines is False
-    assert EnvConfig.from_kwargs(perception="dense").ground_lines is False
-    assert EnvConfig.from_kwargs(ground_lines=False).ground_lines is False
+    assert EnvConfig().ground_lines is False
+    assert EnvConfig.from_kwargs(perception="surrogate", ground_lines=True).ground_lines
     with pytest.raises(ValueError, match="ground_lines"):
         EnvConfig.from_kwargs(perception="truth", ground_lines=True)
     with pytest.raises(ValueError, match="ground_lines"):
