@@ -402,6 +402,12 @@ class Gate:
     crossed: bool = False
 
     @property
+    def settled(self) -> bool:
+        """Whether the robot's own motion decided it (it bumped there, or drove through): no
+        view changes it any more."""
+        return self.failed or self.crossed
+
+    @property
     def midpoint(self) -> FloatArray:
         """(2,) midpoint of the narrowest relation."""
         mid: FloatArray = self.ends.mean(axis=0)
@@ -492,7 +498,7 @@ class GateHistory:
             g = self.gates[k]
             g.last_step = step
             g.viewed_distance_m = min(g.viewed_distance_m, dist)
-            if g.failed or g.crossed:
+            if g.settled:
                 continue
             if float(reg.width_std_m) <= self.worse_factor * g.width_std_m:
                 g.ends = ends.copy()
@@ -523,7 +529,7 @@ class GateHistory:
             for ob in sit.obstacles
         ]
         for k, g in enumerate(self.gates):
-            if k in matched or g.failed or g.crossed:
+            if k in matched or g.settled:
                 continue
             mid = g.midpoint
             rel = mid - vp[:2]
@@ -568,9 +574,7 @@ class GateHistory:
         out = []
         p = np.asarray(xy, dtype=np.float64).reshape(2)
         for k, g in enumerate(self.gates):
-            if g.crossed:
-                continue
-            if float(np.hypot(*(g.midpoint - p))) <= radius_m and not g.failed:
+            if not g.settled and float(np.hypot(*(g.midpoint - p))) <= radius_m:
                 g.failed = True
                 g.p_passable = 0.0
                 out.append(k)

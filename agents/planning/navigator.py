@@ -104,11 +104,12 @@ class ModelBasedAgent(Agent):
         cfg, core, recovery = self.config, self.core, self._recovery
         pose = robot_pose(self.env)
         x, y, heading, _ = pose
+        here = np.array([x, y])
         core.observe(model_of(self.env, info), self.steps, fused=memory_model_of(info))
-        core.gates.note_motion(self._last_xy, np.array([x, y]))
-        self._last_xy = np.array([x, y])
+        core.gates.note_motion(self._last_xy, here)
+        self._last_xy = here
         replan = self.decision is None or self._since_plan >= cfg.replan_every
-        goal_distance_m = float(np.hypot(*(np.array([x, y]) - core.goal)))
+        goal_distance_m = float(np.hypot(*(here - core.goal)))
         events = recovery.update(
             (x, y, heading),
             self.steps,
