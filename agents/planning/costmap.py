@@ -9,7 +9,11 @@ other side. A gate edge's weight is chosen by the caller (length only, length pl
 or absent when the gate is taken as closed).
 
 ``cost_to_go`` runs Dijkstra from the target on the reversed graph, so its distances are costs *to*
-the target and its predecessors point the way there.
+the target and its predecessors point the way there. A planner asks one grid for several graphs
+that differ only by their gate edges (open, closed, expected, each without one gate):
+:meth:`CostGrid.to_target` and :meth:`CostGrid.from_source` build the grid's own edges into a
+sparse matrix once per direction and add each call's few gate edges to it, the same matrix as
+:meth:`CostGrid.matrix` (and its transpose) made whole each time.
 """
 
 from __future__ import annotations
@@ -125,6 +129,7 @@ class CostGrid:
             if edge is not None and (walls is None or not self._crosses(edge, walls)):
                 self.gate_edges.append(edge)
         self._base = self._base_edges()
+        self._base_matrices: dict[bool, csr_matrix] = {}  # reverse: the grid's edges
 
     # ------------------------------------------------------------------ construction
     def _free_along(self, start: FloatArray, direction: FloatArray, max_m: float) -> int | None:
@@ -186,15 +191,39 @@ class CostGrid:
     # ------------------------------------------------------------------ graphs
     def matrix(self, gate_weights: dict[tuple[int, int], float]) -> csr_matrix:
         """The directed graph with the given gate edges ``{(a, b): weight}`` added."""
-        src, dst, w = self._base
-        if gate_weights:
-            keys = list(gate_weights)
-            src = np.concatenate([src, np.array([k[0] for k in keys], dtype=np.int64)])
-            dst = np.concatenate([dst, np.array([k[1] for k in keys], dtype=np.int64)])
-            w = np.concatenate([w, np.array([gate_weights[k] for k in keys], dtype=np.float64)])
+        return self._graph(gate_weights, reverse=False).copy()
+
+    def to_target(
+        self, gate_weights: dict[tuple[int, int], float], target: int
+    ) -> tuple[FloatArray, IntArray]:
+        """:func:`cost_to_go` of ``target`` on :meth:`matrix` ``(gate_weights)``."""
+        return _dijkstra(self._graph(gate_weights, reverse=True), target)
+
+    def from_source(
+        self, gate_weights: dict[tuple[int, int], float], source: int
+    ) -> tuple[FloatArray, IntArray]:
+        """:func:`cost_from` of ``source`` on :meth:`matrix` ``(gate_weights)``."""
+        return _dijkstra(self._graph(gate_weights, reverse=False), source)
+
+    def _graph(self, gate_weights: dict[tuple[int, int], float], *, reverse: bool) -> csr_matrix:
+        """The graph with ``gate_weights``' edges (``reverse``: every edge turned around): the
+        grid's own edges (made once per direction and shared: not to be changed) plus the gates'.
+        A pair has at most one grid edge and one gate edge, so the sum is, bit for bit, the
+        matrix of all the edges made at once."""
         n = self.spec.size
-        # Tiny positive floor: csgraph treats explicit zeros as missing edges.
-        return csr_matrix((np.maximum(w, 1e-9), (src, dst)), shape=(n, n))
+        base = self._base_matrices.get(reverse)
+        if base is None:
+            src, dst, w = self._base
+            base = _edge_matrix(*((dst, src) if reverse else (src, dst)), w, n)
+            self._base_matrices[reverse] = base
+        if not gate_weights:
+            return base
+        keys = list(gate_weights)
+        a = np.array([k[0] for k in keys], dtype=np.int64)
+        b = np.array([k[1] for k in keys], dtype=np.int64)
+        w = np.array([gate_weights[k] for k in keys], dtype=np.float64)
+        out: csr_matrix = base + _edge_matrix(*((b, a) if reverse else (a, b)), w, n)
+        return out
 
     def edge_weight(self, u: int, v: int, gate_weights: dict[tuple[int, int], float]) -> float:
         """Weight of the move ``u -> v`` (a grid neighbour or a gate edge); ``inf`` if none."""
@@ -230,6 +259,12 @@ class CostGrid:
         d = np.hypot(*(spec.xy_of(cand) - p).T)
         k = int(np.argmin(d))
         return int(cand[k]) if d[k] <= max_m else None
+
+
+def _edge_matrix(src: IntArray, dst: IntArray, w: FloatArray, n: int) -> csr_matrix:
+    """The (n, n) sparse matrix of the edges ``src -> dst`` of weights ``w``, with a tiny
+    positive floor (csgraph treats explicit zeros as missing edges)."""
+    return csr_matrix((np.maximum(w, 1e-9), (src, dst)), shape=(n, n))
 
 
 def cost_to_go(matrix: csr_matrix, target: int) -> tuple[FloatArray, IntArray]:

@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from agents.base import ControlLimits
 from agents.planning.config import NavigatorConfig
-from agents.planning.costmap import CostGrid, GateEdge, cost_from, cost_to_go
+from agents.planning.costmap import CostGrid, GateEdge
 from agents.planning.decision import (
     GateCosts,
     calibrated_mean,
@@ -157,8 +157,7 @@ def best_information(
     x, y, heading, pan = pose
     here = np.array([x, y])
     cap = config.unreachable_cost_m
-    m = plan.grid.matrix(plan.weights)
-    from_robot, from_pred = cost_from(m, plan.start)
+    from_robot, from_pred = plan.grid.from_source(plan.weights, plan.start)
     look_gain, approach_gain = config.min_gain_m, config.min_approach_gain_m
     look: InformationChoice | None = None
     approach: InformationChoice | None = None
@@ -169,7 +168,7 @@ def best_information(
         if not math.isfinite(float(from_robot[entry])):
             continue
         without = {k: w for k, w in plan.weights.items() if k not in ((e.a, e.b), (e.b, e.a))}
-        v_minus, _ = cost_to_go(plan.grid.matrix(without), plan.target)
+        v_minus, _ = plan.grid.to_target(without, plan.target)
         costs = GateCosts(
             to_entry_m=float(from_robot[entry]),
             cross_m=e.length_m,

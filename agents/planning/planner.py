@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 
 from agents.base import ControlLimits
 from agents.planning.config import NavigatorConfig, Policy
-from agents.planning.costmap import CostGrid, cost_from, cost_to_go, path_from
+from agents.planning.costmap import CostGrid, path_from
 from agents.planning.gridmap import (
     Gate,
     GateHistory,
@@ -307,7 +307,7 @@ class PlannerCore:
                 open_w[(u, v)] = e.length_m
                 if p >= 1.0 - eps:
                     closed_w[(u, v)] = e.length_m
-        value, pred = cost_to_go(grid.matrix(open_w), target)
+        value, pred = grid.to_target(open_w, target)
         plan = SituationPlan(
             grid=grid, weights=open_w, value=value, pred=pred, start=start, target=target
         )
@@ -318,7 +318,7 @@ class PlannerCore:
         # V_alt the best alternative without the gate. First with every undecided gate closed
         # (pessimistic), then, for the few gates on near-best routes, without that gate only
         # (the others at their expected weights).
-        closed_value, _ = cost_to_go(grid.matrix(closed_w), target)
+        closed_value, _ = grid.to_target(closed_w, target)
         cap = self.config.unreachable_cost_m
         undecided = [e for e in grid.gate_edges if eps < p_of[e.gate] < 1.0 - eps]
 
@@ -335,7 +335,7 @@ class PlannerCore:
             return w
 
         exp_w = weights({})
-        from_start, _ = cost_from(grid.matrix(open_w), start)
+        from_start, _ = grid.from_source(open_w, start)
         best = float(value[start])
         via = sorted(
             (
@@ -353,10 +353,10 @@ class PlannerCore:
                 break
             e = undecided[k]
             without = {key: w for key, w in exp_w.items() if key not in ((e.a, e.b), (e.b, e.a))}
-            fallback[e.gate], _ = cost_to_go(grid.matrix(without), target)
+            fallback[e.gate], _ = grid.to_target(without, target)
         if fallback:
             exp_w = weights(fallback)
-        exp_value, exp_pred = cost_to_go(grid.matrix(exp_w), target)
+        exp_value, exp_pred = grid.to_target(exp_w, target)
         return SituationPlan(
             grid=grid,
             weights=exp_w,

@@ -7,8 +7,9 @@ import math
 
 import numpy as np
 import pytest
+from scipy.sparse import csr_matrix
 
-from agents.planning.costmap import CostGrid, cost_to_go, path_from
+from agents.planning.costmap import CostGrid, cost_from, cost_to_go, path_from
 from agents.planning.gridmap import GateHistory, GridSpec, OccupancyMap
 from tests.agents.synthetic import model_of, wall_segments
 
@@ -149,6 +150,39 @@ def test_cost_grid_crosses_a_gap_only_by_its_gate_edge() -> None:
     assert path[0] == start and path[-1] == goal
     assert any({u, v} == {edge.a, edge.b} for u, v in itertools.pairwise(path))
     assert 3.9 < value[start] < 5.5
+
+
+def test_cost_grid_graphs_equal_the_graph_made_at_once() -> None:
+    # to_target / from_source add each call's gate edges to the grid's edges built once; the
+    # matrices and the Dijkstra results must be those of all the edges made into one matrix.
+    spec, occupancy, gates = _wall_with_one_gap()
+    grid = CostGrid(spec, occupancy.occupied(), gates.gates, hard_m=0.2, soft_m=0.4)
+    (edge,) = grid.gate_edges
+    src, dst, w = grid._base
+    beside = (int(src[0]), int(dst[0]))  # a pair with a grid edge too: the weights add up
+    start = int(spec.index_of(np.array([[1.0, 2.0]]))[0])
+    goal = int(spec.index_of(np.array([[5.0, 2.0]]))[0])
+    for weights in ({}, {(edge.a, edge.b): 1.3, (edge.b, edge.a): 0.0, beside: 0.7}):
+        a = np.concatenate([src, np.array([k[0] for k in weights], dtype=np.int64)])
+        b = np.concatenate([dst, np.array([k[1] for k in weights], dtype=np.int64)])
+        ws = np.maximum(np.concatenate([w, list(weights.values())]), 1e-9)
+        whole = csr_matrix((ws, (a, b)), shape=(spec.size, spec.size))
+        reverse = csr_matrix((ws, (b, a)), shape=(spec.size, spec.size))
+        for got, want in (
+            (grid.matrix(weights), whole),
+            (grid._graph(weights, reverse=True), reverse),
+        ):
+            assert np.array_equal(got.indptr, want.indptr)
+            assert np.array_equal(got.indices, want.indices)
+            assert np.array_equal(got.data, want.data)
+        for got_, want_ in (
+            (grid.to_target(weights, goal), cost_to_go(whole, goal)),
+            (grid.from_source(weights, start), cost_from(whole, start)),
+        ):
+            assert np.array_equal(got_[0], want_[0]) and np.array_equal(got_[1], want_[1])
+    before = grid.from_source({}, start)[0]
+    grid.matrix({}).data[:] = 1e6  # a caller's matrix is its own copy, not the shared one
+    assert np.array_equal(grid.from_source({}, start)[0], before)
 
 
 def test_no_gate_edge_jumps_over_a_bump_mark() -> None:
