@@ -145,8 +145,12 @@ def _line_points(lines: FloatArray, step_m: float) -> FloatArray:
         return np.zeros((0, 2))
     lengths = np.hypot(*(lines[:, 1] - lines[:, 0]).T)
     counts = np.maximum(2, np.ceil(lengths / step_m).astype(np.int64) + 1)
-    t = np.concatenate([np.linspace(0.0, 1.0, c) for c in counts])
     which = np.repeat(np.arange(lines.shape[0]), counts)
+    # np.linspace(0, 1, c) of every line at once, bit for bit: k * (1 / (c - 1)), the last 1.
+    ends = np.cumsum(counts)
+    k = np.arange(ends[-1]) - np.repeat(ends - counts, counts)
+    t = k * (1.0 / (counts - 1))[which]
+    t[ends - 1] = 1.0
     a, b = lines[which, 0], lines[which, 1]
     points: FloatArray = a + (b - a) * t[:, None]
     return points
@@ -230,15 +234,14 @@ def visible_mask(
     return mask
 
 
-def _point_segments_distance(p: FloatArray, segments: FloatArray) -> float:
-    """Smallest distance from the point ``p`` (2,) to the (q, 2, 2) segments (inf if none)."""
+def _point_segment_distances(p: FloatArray, segments: FloatArray) -> FloatArray:
+    """(q,) distance from the point ``p`` (2,) to each of the (q, 2, 2) segments."""
     seg = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
-    if seg.shape[0] == 0:
-        return math.inf
     a, d = seg[:, 0], seg[:, 1] - seg[:, 0]
     length2 = np.maximum((d * d).sum(axis=1), 1e-12)
     t = np.clip(((p - a) * d).sum(axis=1) / length2, 0.0, 1.0)
-    return float(np.hypot(*(a + t[:, None] * d - p).T).min())
+    out: FloatArray = np.hypot(*(a + t[:, None] * d - p).T)
+    return out
 
 
 def top_situations(model: EnvironmentModel, max_k: int, mass: float = 0.95) -> list[Situation]:
@@ -528,6 +531,9 @@ class GateHistory:
             else np.repeat(np.asarray(ob.points).reshape(-1, 1, 2), 2, axis=1)
             for ob in sit.obstacles
         ]
+        # every skeleton segment at once, with the obstacle it belongs to
+        owner = np.repeat(np.arange(len(skeletons)), [sk.shape[0] for sk in skeletons])
+        segments = np.concatenate(skeletons)
         for k, g in enumerate(self.gates):
             if k in matched or g.settled:
                 continue
@@ -543,12 +549,12 @@ class GateHistory:
             if dist >= g.seen_distance_m:
                 continue  # no better view than the one that gave the estimate
             sides = [
-                [i for i, sk in enumerate(skeletons) if _point_segments_distance(end, sk) < 0.15]
+                set(owner[_point_segment_distances(end, segments) < 0.15].tolist())
                 for end in g.ends
             ]
             if not sides[0] or not sides[1]:
                 continue  # a side was not seen: nothing learnt
-            same = bool(set(sides[0]) & set(sides[1]))
+            same = bool(sides[0] & sides[1])
             g.p_passable = 0.0 if same else 1.0
             g.width_std_m = min(g.width_std_m, 0.02)
             g.seen_distance_m = dist

@@ -10,7 +10,7 @@ import pytest
 from scipy.sparse import csr_matrix
 
 from agents.planning.costmap import CostGrid, cost_from, cost_to_go, path_from
-from agents.planning.gridmap import GateHistory, GridSpec, OccupancyMap
+from agents.planning.gridmap import GateHistory, GridSpec, OccupancyMap, _line_points
 from tests.agents.synthetic import model_of, wall_segments
 
 
@@ -27,6 +27,25 @@ def test_grid_spec_cells_round_trip() -> None:
     assert spec.xy_of(idx) == pytest.approx(np.array([[0.05, 0.05], [1.25, 0.55]]))
     with pytest.raises(ValueError, match="bounds must satisfy"):
         GridSpec.from_bounds((1.0, 0.0, 1.0, 1.0))
+
+
+def test_line_points_are_each_lines_linspace() -> None:
+    # _line_points samples every line at once; the points must be those of np.linspace per line,
+    # bit for bit (the rasters, and so the planner's maps, are unchanged by it).
+    rng = np.random.default_rng(3)
+    for step in (0.025, 0.05, 0.3):
+        lines = rng.uniform(-5.0, 5.0, (40, 2, 2))
+        lines[7, 1] = lines[7, 0]  # zero length: both ends
+        lengths = np.hypot(*(lines[:, 1] - lines[:, 0]).T)
+        counts = np.maximum(2, np.ceil(lengths / step).astype(np.int64) + 1)
+        want = np.concatenate(
+            [
+                a + (b - a) * np.linspace(0.0, 1.0, c)[:, None]
+                for (a, b), c in zip(lines, counts, strict=True)
+            ]
+        )
+        assert np.array_equal(_line_points(lines, step), want)
+    assert _line_points(np.zeros((0, 2, 2)), 0.05).shape == (0, 2)
 
 
 def test_occupancy_fuses_hits_and_clears_what_it_sees_free() -> None:
@@ -98,6 +117,23 @@ def test_gate_history_matches_and_keeps_the_sharper_estimate() -> None:
     assert gate.width_std_m < far_std / 2 and gate.last_step == 2
     assert gates.mark_failed(np.array([3.8, 2.0]), 0.5) == [0]
     assert gate.failed and gate.p_passable == 0.0
+
+
+def test_a_closer_view_decides_a_remembered_gate_from_its_sides() -> None:
+    """A remembered gate in clear view, closer than before, with no region there now: passable
+    when its two ends lie on two obstacles, impassable when on one."""
+    far = model_of(wall_segments(4.0, [(0.5, 1.74), (2.26, 3.5)], 0.1), (0.0, 2.0, 0.0))
+    for spans, sigma, p_passable in (
+        ([(0.5, 1.74), (2.26, 3.5)], 0.002, 1.0),  # the 0.52 m gap, now surely wide enough
+        ([(0.5, 3.5)], 0.02, 0.0),  # no gap: one wall
+    ):
+        gates = GateHistory()
+        gates.update(far, step=0)
+        (gate,) = gates.gates
+        assert 0.05 < gate.p_passable < 0.95
+        gates.update(model_of(wall_segments(4.0, spans, sigma), (2.0, 2.0, 0.0)), step=1)
+        assert len(gates.gates) == 1 and gate.p_passable == p_passable
+        assert gate.seen_distance_m == pytest.approx(2.0) and gate.last_step == 1
 
 
 def test_a_gate_the_robot_drove_through_stays_passable() -> None:
