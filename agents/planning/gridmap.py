@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 
 from modeling.geometry import wrap_angle
 from modeling.model.records import EnvironmentModel, Situation
-from modeling.types import BoolArray, FloatArray
+from modeling.types import BoolArray, FloatArray, IntArray
 
 __all__ = [
     "Gate",
@@ -156,7 +156,9 @@ def _line_points(lines: FloatArray, step_m: float) -> FloatArray:
     return points
 
 
-def _obstacle_lines(situation: Situation) -> FloatArray:
+def _obstacle_lines(situation: Situation) -> tuple[FloatArray, IntArray]:
+    """(q, 2, 2) the skeleton segments of ``situation``'s obstacles (an obstacle without lines:
+    its points, as segments of zero length), and (q,) the obstacle of each."""
     parts = []
     for ob in situation.obstacles:
         if ob.lines.shape[0]:
@@ -164,7 +166,10 @@ def _obstacle_lines(situation: Situation) -> FloatArray:
         else:
             pts = np.asarray(ob.points).reshape(-1, 2)
             parts.append(np.stack([pts, pts], axis=1))
-    return np.concatenate(parts) if parts else np.zeros((0, 2, 2))
+    if not parts:
+        return np.zeros((0, 2, 2)), np.zeros(0, dtype=np.int64)
+    owner = np.repeat(np.arange(len(parts)), [part.shape[0] for part in parts])
+    return np.concatenate(parts), owner
 
 
 def rasterize_lines(
@@ -211,7 +216,7 @@ def rasterize_obstacles(
     Points farther than ``max_range_m`` from ``viewpoint_xy`` are left out.
     """
     return rasterize_lines(
-        spec, _obstacle_lines(situation), viewpoint_xy=viewpoint_xy, max_range_m=max_range_m
+        spec, _obstacle_lines(situation)[0], viewpoint_xy=viewpoint_xy, max_range_m=max_range_m
     )
 
 
@@ -525,15 +530,7 @@ class GateHistory:
         if not sit.obstacles:
             return
         occ = model.occluded_geometry
-        skeletons = [
-            ob.lines.reshape(-1, 2, 2)
-            if ob.lines.shape[0]
-            else np.repeat(np.asarray(ob.points).reshape(-1, 1, 2), 2, axis=1)
-            for ob in sit.obstacles
-        ]
-        # every skeleton segment at once, with the obstacle it belongs to
-        owner = np.repeat(np.arange(len(skeletons)), [sk.shape[0] for sk in skeletons])
-        segments = np.concatenate(skeletons)
+        segments, owner = _obstacle_lines(sit)
         for k, g in enumerate(self.gates):
             if k in matched or g.settled:
                 continue
