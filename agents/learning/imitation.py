@@ -475,7 +475,7 @@ def _collect(
 
 def _bin_loss(logits: Any, targets: Any) -> Any:
     """The fits' loss (a torch scalar): cross-entropy of (n, 3, bins) ``logits`` against the soft
-    targets of :func:`encode_bins`, summed over the commands, averaged over the samples."""
+    targets of :func:`encode_bins`, averaged over the samples and the three commands."""
     import torch
 
     return -(targets * torch.log_softmax(logits, dim=-1)).sum(dim=-1).mean()

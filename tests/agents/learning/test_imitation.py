@@ -134,6 +134,17 @@ def test_bad_recipes_are_named(tmp_path: pathlib.Path) -> None:
         load_policy(tmp_path / "none.pt")
 
 
+def test_the_loss_is_each_commands_cross_entropy_averaged() -> None:
+    """One sample, three commands: the loss is the mean of the three cross-entropies against
+    the soft targets (the scale of every recorded ``loss`` and ``val_loss``)."""
+    import torch
+
+    logits = torch.log(torch.tensor([[[0.5, 0.25, 0.25], [0.25, 0.5, 0.25], [0.25, 0.25, 0.5]]]))
+    targets = torch.tensor([[[1.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.0, 0.0, 1.0]]])
+    per_command = [-np.log(0.5), -(0.5 * np.log(0.25) + 0.5 * np.log(0.5)), -np.log(0.5)]
+    assert float(_bin_loss(logits, targets)) == pytest.approx(np.mean(per_command))
+
+
 def test_validation_scores_a_student_against_the_teachers_nearest_bins() -> None:
     import torch
 
