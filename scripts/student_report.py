@@ -1,8 +1,8 @@
 """How a learned policy drives against its teacher: per episode of the suite, and by outcome.
 
     python scripts/student_report.py [--agent NAME] --episodes N [--split dev|test] [--seed S]
-        [--perception P] [--teacher T] [--workers K] [--only I [I ...]] [--json FILE]
-        [--families F [F ...]] [--max-steps N]
+        [--perception P] [--teacher T] [--teacher-setting NAME=VALUE ...] [--workers K]
+        [--only I [I ...]] [--json FILE] [--families F [F ...]] [--max-steps N]
 
 Runs episodes of the suite of ``scripts/evaluate.py`` (the same env, seeds and rules; dev split by
 default) with a learned agent (``learned``: the shipped policy, or ``learned:PATH``) while a
@@ -10,6 +10,10 @@ teacher whose memory follows the student's trajectory labels every state, and pr
 episode, the figures of :func:`agents.evaluation.student.student_patterns` (steps on the spot,
 turn flips, turns opposite to the teacher's, forward excess, contacts, geodesic distances), then
 their means over the successful and the failed episodes. ``--only`` runs those episode indices.
+``--teacher-setting`` changes a field of the teacher's ``NavigatorConfig`` (repeatable); with a
+model-based ``--agent`` (``planner``) the report compares two teachers on the same drives, e.g.
+``--agent planner --teacher-setting replan_every=1``: how much of the planner's command depends
+on when it last planned.
 """
 
 from __future__ import annotations
@@ -28,6 +32,8 @@ from evaluate import add_suite_arguments, suite_of
 
 from agents.evaluation.student import student_patterns, trace_student
 from agents.evaluation.suite import EpisodeSpec, SuiteConfig, suite_episodes
+from agents.planning.config import NavigatorConfig
+from modeling.validation import with_overrides
 
 MEANS = (
     "steps",
@@ -43,10 +49,25 @@ MEANS = (
 """The figures averaged by outcome."""
 
 
-def _row(job: tuple[str, str, EpisodeSpec, SuiteConfig]) -> dict[str, Any]:
-    agent, teacher, spec, cfg = job
-    trace = trace_student(agent, spec, cfg, teacher=teacher)
+def _row(job: tuple[str, str, dict[str, Any], EpisodeSpec, SuiteConfig]) -> dict[str, Any]:
+    agent, teacher, settings, spec, cfg = job
+    trace = trace_student(agent, spec, cfg, teacher=teacher, teacher_settings=settings)
     return {"index": spec.index, **student_patterns(trace)}
+
+
+def settings_of(words: list[str]) -> dict[str, Any]:
+    """``{name: value}`` of ``NAME=VALUE`` words, each value read as JSON (a number, ``true``)
+    or else kept as a string."""
+    out: dict[str, Any] = {}
+    for word in words:
+        name, sep, text = word.partition("=")
+        if not sep or not name:
+            raise ValueError(f"a teacher setting must read NAME=VALUE, got {word!r}")
+        try:
+            out[name] = json.loads(text)
+        except json.JSONDecodeError:
+            out[name] = text
+    return out
 
 
 def by_outcome(rows: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
@@ -65,14 +86,26 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--agent", default="learned", help="learned or learned:PATH")
     parser.add_argument("--teacher", default="planner", help="planner, greedy or cautious")
+    parser.add_argument(
+        "--teacher-setting",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a field of the teacher's NavigatorConfig (repeat)",
+    )
     add_suite_arguments(parser)
     parser.add_argument("--only", type=int, nargs="+", default=None, help="episode indices")
     parser.add_argument("--perception", default="stereo", help="the env's perception")
     parser.add_argument("--json", type=pathlib.Path, help="per-episode and mean JSON file")
     args = parser.parse_args(argv)
     cfg = suite_of(parser, args, env_kwargs={"diagnostics": False, "perception": args.perception})
+    try:
+        settings = settings_of(args.teacher_setting)
+        with_overrides(None, NavigatorConfig, settings)  # names a bad field or value
+    except ValueError as err:
+        parser.error(str(err))
     jobs = [
-        (args.agent, args.teacher, spec, cfg)
+        (args.agent, args.teacher, settings, spec, cfg)
         for spec in suite_episodes(cfg)
         if args.only is None or spec.index in args.only
     ]

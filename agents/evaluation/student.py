@@ -1,8 +1,9 @@
 """How a learned student drives against its teacher: one suite episode traced step by step.
 
 :func:`trace_student` runs one episode of the suite (:mod:`agents.evaluation.suite`: the same env,
-reset seed and step limit) with a learned agent (``learned``, ``learned:PATH``) and, beside it,
-a teacher whose memory follows the student's trajectory
+reset seed and step limit) with a learned agent (``learned``, ``learned:PATH``; any agent may
+drive, a model-based one to compare two teachers) and, beside it, a teacher whose memory follows
+the student's trajectory
 (:class:`~agents.learning.wrappers.PlannerTeacher`, as the DAgger rounds of
 :mod:`agents.learning.imitation` label states): at every step, the command the student sent and
 the one the teacher would have sent, the pose, the contact flag and the true geodesic distance to
@@ -25,6 +26,7 @@ teacher:
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -69,24 +71,35 @@ class StudentTrace:
 
 
 def trace_student(
-    agent_name: str, spec: EpisodeSpec, cfg: SuiteConfig, *, teacher: str = "planner"
+    agent_name: str,
+    spec: EpisodeSpec,
+    cfg: SuiteConfig,
+    *,
+    teacher: str = "planner",
+    teacher_settings: Mapping[str, Any] | None = None,
 ) -> StudentTrace:
-    """Run the learned agent ``agent_name`` for episode ``spec`` of suite ``cfg`` (as
-    :func:`agents.evaluation.suite.run_episode` does), with ``teacher`` labelling each state."""
+    """Run ``agent_name`` (a learned agent, or any other) for episode ``spec`` of suite ``cfg``
+    (as :func:`agents.evaluation.suite.run_episode` does), with ``teacher`` labelling each state
+    (``teacher_settings``: fields of its :class:`~agents.planning.config.NavigatorConfig`, e.g.
+    ``{"replan_every": 1}``; a model-based driver takes ``cfg.navigator``)."""
     import gymnasium as gym
 
     import stereo_nav_env  # noqa: F401  (registers the ids)
     from agents import make_agent
     from agents.base import robot_pose
     from agents.evaluation.suite import ENV_ID
-    from agents.learning.learned import LearnedAgent
     from agents.learning.wrappers import PlannerTeacher
+    from agents.planning.config import NavigatorConfig, Policy
+    from modeling.validation import with_overrides
 
-    agent = make_agent(agent_name)
-    if not isinstance(agent, LearnedAgent):
-        raise ValueError(f"{agent_name!r} is not a learned agent")
+    # with_overrides names a bad field or value
+    labeller = with_overrides(None, NavigatorConfig, dict(teacher_settings or {}))
+    model_based = agent_name in {p.value for p in Policy}
+    agent = make_agent(
+        agent_name, **({"config": NavigatorConfig(**cfg.navigator)} if model_based else {})
+    )
     env: gym.Env[Any, Any] = PlannerTeacher(
-        gym.make(ENV_ID, scenario=spec.family, **cfg.env_kwargs), teacher
+        gym.make(ENV_ID, scenario=spec.family, **cfg.env_kwargs), teacher, labeller
     )
     rows: list[list[float]] = []
     success = False

@@ -67,8 +67,22 @@ def test_a_traced_episode_labels_each_state_the_student_reached() -> None:
     assert np.all(np.isfinite(trace.geodesic_m))
     # the robot drove: its positions move, and the first one is the episode's start
     assert float(np.hypot(*(trace.xy[-1] - trace.xy[0]))) > 0.05
-    with pytest.raises(ValueError, match="not a learned agent"):
-        trace_student("planner", spec, cfg)
+    with pytest.raises(ValueError, match="replan_evry"):
+        trace_student("learned", spec, cfg, teacher_settings={"replan_evry": 1})
+
+
+def test_a_planner_labelled_by_its_own_twin_agrees_and_one_replanning_always_may_not() -> None:
+    """With the planner driving, a teacher with the same settings sends its very commands (the
+    trace compares teachers without a student); one that re-plans at every step differs."""
+    cfg = SuiteConfig(
+        episodes=2, max_steps=40, env_kwargs={"diagnostics": False, "perception": "surrogate"}
+    )
+    spec = suite_episodes(cfg)[1]
+    twin = trace_student("planner", spec, cfg)
+    np.testing.assert_array_equal(twin.sent, twin.teacher)
+    eager = trace_student("planner", spec, cfg, teacher_settings={"replan_every": 1})
+    np.testing.assert_array_equal(eager.sent, twin.sent)  # the same drive
+    assert not np.array_equal(eager.teacher, twin.teacher)
 
 
 def test_the_student_report_writes_each_episode_and_the_means_by_outcome(
@@ -89,3 +103,11 @@ def test_the_student_report_writes_each_episode_and_the_means_by_outcome(
     assert written["by_outcome"]["failed"]["episodes"] == 1.0
     assert written["by_outcome"]["failed"]["steps"] == 10.0
     assert written["by_outcome"]["success"] == {"episodes": 0.0}
+    assert report.settings_of(["replan_every=1", "policy=greedy"]) == {
+        "replan_every": 1,
+        "policy": "greedy",
+    }
+    with pytest.raises(SystemExit):
+        report.main(["--episodes", "1", "--teacher-setting", "replan_every"])
+    with pytest.raises(SystemExit):
+        report.main(["--episodes", "1", "--teacher-setting", "no_such_field=1"])
