@@ -29,6 +29,7 @@ from typing import Any
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
 from agents.evaluation.suite import (
+    EpisodeSpec,
     Split,
     SuiteConfig,
     default_seed,
@@ -37,6 +38,7 @@ from agents.evaluation.suite import (
     markdown_table,
     plot_summary,
     split_of,
+    suite_episodes,
     suite_rules,
     summarize,
 )
@@ -62,6 +64,20 @@ def add_suite_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-steps", type=int, default=500, help="steps at most per episode")
     parser.add_argument("--workers", type=int, default=1, help="parallel processes")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def add_trace_arguments(parser: argparse.ArgumentParser, *, json_help: str) -> None:
+    """Add the options of the scripts that trace suite episodes one by one (``stall_report.py``,
+    ``student_report.py``): ``--only`` (episode indices), ``--perception`` (stereo by default)
+    and ``--json`` (``json_help`` says what it holds)."""
+    parser.add_argument("--only", type=int, nargs="+", default=None, help="episode indices")
+    parser.add_argument("--perception", default="stereo", help="the env's perception")
+    parser.add_argument("--json", type=pathlib.Path, help=json_help)
+
+
+def chosen_episodes(cfg: SuiteConfig, only: list[int] | None) -> list[EpisodeSpec]:
+    """The episodes of ``cfg``'s suite, only those of the indices ``only`` unless it is None."""
+    return [spec for spec in suite_episodes(cfg) if only is None or spec.index in only]
 
 
 def suite_of(

@@ -14,14 +14,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import pathlib
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
-from evaluate import add_suite_arguments, suite_of
+from evaluate import add_suite_arguments, add_trace_arguments, chosen_episodes, suite_of
 
 from agents.evaluation.stall import stall_patterns, trace_episode
-from agents.evaluation.suite import suite_episodes
 
 
 def main(argv: list[str] | None = None) -> list[dict[str, object]]:
@@ -29,15 +27,11 @@ def main(argv: list[str] | None = None) -> list[dict[str, object]]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--agent", default="planner", help="greedy, cautious or planner")
     add_suite_arguments(parser)
-    parser.add_argument("--only", type=int, nargs="+", default=None, help="episode indices")
-    parser.add_argument("--perception", default="stereo", help="the env's perception")
-    parser.add_argument("--json", type=pathlib.Path, help="per-episode JSON file")
+    add_trace_arguments(parser, json_help="per-episode JSON file")
     args = parser.parse_args(argv)
     cfg = suite_of(parser, args, env_kwargs={"diagnostics": False, "perception": args.perception})
     rows = []
-    for spec in suite_episodes(cfg):
-        if args.only is not None and spec.index not in args.only:
-            continue
+    for spec in chosen_episodes(cfg, args.only):
         row = {"index": spec.index, **stall_patterns(trace_episode(args.agent, spec, cfg))}
         rows.append(row)
         print(json.dumps(row), flush=True)

@@ -22,16 +22,15 @@ import argparse
 import json
 import multiprocessing
 import os
-import pathlib
 from typing import Any
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
 import numpy as np
-from evaluate import add_suite_arguments, suite_of
+from evaluate import add_suite_arguments, add_trace_arguments, chosen_episodes, suite_of
 
 from agents.evaluation.student import student_patterns, trace_student
-from agents.evaluation.suite import EpisodeSpec, SuiteConfig, suite_episodes
+from agents.evaluation.suite import EpisodeSpec, SuiteConfig
 from agents.planning.config import NavigatorConfig
 from modeling.validation import with_overrides
 
@@ -94,9 +93,7 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
         help="a field of the teacher's NavigatorConfig (repeat)",
     )
     add_suite_arguments(parser)
-    parser.add_argument("--only", type=int, nargs="+", default=None, help="episode indices")
-    parser.add_argument("--perception", default="stereo", help="the env's perception")
-    parser.add_argument("--json", type=pathlib.Path, help="per-episode and mean JSON file")
+    add_trace_arguments(parser, json_help="per-episode and mean JSON file")
     args = parser.parse_args(argv)
     cfg = suite_of(parser, args, env_kwargs={"diagnostics": False, "perception": args.perception})
     try:
@@ -104,11 +101,8 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
         with_overrides(None, NavigatorConfig, settings)  # names a bad field or value
     except ValueError as err:
         parser.error(str(err))
-    jobs = [
-        (args.agent, args.teacher, settings, spec, cfg)
-        for spec in suite_episodes(cfg)
-        if args.only is None or spec.index in args.only
-    ]
+    specs = chosen_episodes(cfg, args.only)
+    jobs = [(args.agent, args.teacher, settings, spec, cfg) for spec in specs]
     if args.workers == 1:
         rows = [_row(job) for job in jobs]
     else:

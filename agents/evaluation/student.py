@@ -85,19 +85,15 @@ def trace_student(
     import gymnasium as gym
 
     import stereo_nav_env  # noqa: F401  (registers the ids)
-    from agents import make_agent
     from agents.base import robot_pose
-    from agents.evaluation.suite import ENV_ID
+    from agents.evaluation.suite import ENV_ID, _agent
     from agents.learning.wrappers import PlannerTeacher
-    from agents.planning.config import NavigatorConfig, Policy
+    from agents.planning.config import NavigatorConfig
     from modeling.validation import with_overrides
 
     # with_overrides names a bad field or value
     labeller = with_overrides(None, NavigatorConfig, dict(teacher_settings or {}))
-    model_based = agent_name in {p.value for p in Policy}
-    agent = make_agent(
-        agent_name, **({"config": NavigatorConfig(**cfg.navigator)} if model_based else {})
-    )
+    agent = _agent(agent_name, cfg.navigator)  # the suite's agent of that name and settings
     env: gym.Env[Any, Any] = PlannerTeacher(
         gym.make(ENV_ID, scenario=spec.family, **cfg.env_kwargs), teacher, labeller
     )
