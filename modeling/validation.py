@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import functools
+import json
 import math
 import typing
 from collections.abc import Hashable, Iterable, Mapping
@@ -164,6 +165,25 @@ def reject_unknown(given: Iterable[Any], known: Iterable[str], what: str = "") -
         hint = ""
     label = f"{what} option(s)" if what else "option(s)"
     raise ValueError(f"unknown {label} {unknown}{hint}; known: {names}")
+
+
+def settings_of(words: Iterable[str]) -> dict[str, Any]:
+    """``{name: value}`` of ``NAME=VALUE`` words (command-line settings of a config class),
+    each value read as JSON (a number, ``true``) or else kept as a string.
+
+    Raises:
+        ValueError: A word is not ``NAME=VALUE`` (the word is named).
+    """
+    out: dict[str, Any] = {}
+    for word in words:
+        name, sep, text = word.partition("=")
+        if not sep or not name:
+            raise ValueError(f"a setting must read NAME=VALUE, got {word!r}")
+        try:
+            out[name] = json.loads(text)
+        except json.JSONDecodeError:
+            out[name] = text
+    return out
 
 
 def field_names(cls: type[Any]) -> tuple[str, ...]:

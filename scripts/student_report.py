@@ -32,7 +32,7 @@ from evaluate import add_suite_arguments, add_trace_arguments, chosen_episodes, 
 from agents.evaluation.student import student_patterns, trace_student
 from agents.evaluation.suite import EpisodeSpec, SuiteConfig
 from agents.planning.config import NavigatorConfig
-from modeling.validation import with_overrides
+from modeling.validation import settings_of, with_overrides
 
 MEANS = (
     "steps",
@@ -52,21 +52,6 @@ def _row(job: tuple[str, str, dict[str, Any], EpisodeSpec, SuiteConfig]) -> dict
     agent, teacher, settings, spec, cfg = job
     trace = trace_student(agent, spec, cfg, teacher=teacher, teacher_settings=settings)
     return {"index": spec.index, **student_patterns(trace)}
-
-
-def settings_of(words: list[str]) -> dict[str, Any]:
-    """``{name: value}`` of ``NAME=VALUE`` words, each value read as JSON (a number, ``true``)
-    or else kept as a string."""
-    out: dict[str, Any] = {}
-    for word in words:
-        name, sep, text = word.partition("=")
-        if not sep or not name:
-            raise ValueError(f"a teacher setting must read NAME=VALUE, got {word!r}")
-        try:
-            out[name] = json.loads(text)
-        except json.JSONDecodeError:
-            out[name] = text
-    return out
 
 
 def by_outcome(rows: list[dict[str, Any]]) -> dict[str, dict[str, float]]:

@@ -2,7 +2,7 @@
 
     python scripts/train.py --teacher planner --out DIR [--seed S] [--n-envs K]
         [--perception surrogate|stereo] [--demo-steps N] [--rounds R] [--round-steps N]
-        [--epochs E]
+        [--epochs E] [--teacher-setting NAME=VALUE ...]
 
     python scripts/train.py --timesteps N --out DIR [--algo ppo|recurrent-ppo] [--n-envs K]
         [--perception stereo|surrogate] [--scenario NAME] [--curriculum [FAMILY ...]]
@@ -15,7 +15,8 @@
 behaviour cloning, then DAgger rounds in which the student drives and the teacher, its memory
 rebuilt along the student's trajectory, labels every state. It writes DIR/policy.pt (evaluate it
 as learned:DIR/policy.pt), DIR/record.json and DIR/curve.csv. Its defaults are
-:class:`agents.learning.imitation.ImitationConfig`'s.
+:class:`agents.learning.imitation.ImitationConfig`'s; ``--teacher-setting replan_every=1``
+sets a field of the teacher's :class:`agents.planning.config.NavigatorConfig` (repeat).
 
 --backend rllib trains with Ray RLlib instead (agents.learning.rllib.backend, docs/rllib.md): N env
 runner processes, on a local Ray or on the cluster at --address; it writes DIR/checkpoint/
@@ -40,6 +41,7 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 from agents.learning.imitation import ImitationConfig, ImitationResult, train_imitation
 from agents.learning.rllib.backend import RLlibOptions, RLlibResult, train_rllib
 from agents.learning.training import ALGOS, CURRICULUM, TrainConfig, TrainResult, train_ppo
+from modeling.validation import settings_of
 
 TEACHERS = ("planner", "greedy", "cautious")
 
@@ -61,6 +63,13 @@ def imitation_config(argv: list[str] | None = None) -> ImitationConfig:
     defaults = ImitationConfig(out_dir=pathlib.Path("."))
     parser = argparse.ArgumentParser(description="imitation of a model-based teacher")
     parser.add_argument("--teacher", choices=TEACHERS, required=True, help="the teacher")
+    parser.add_argument(
+        "--teacher-setting",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a field of the teacher's NavigatorConfig, e.g. replan_every=1 (repeat)",
+    )
     parser.add_argument("--out", type=pathlib.Path, required=True, help="output folder")
     parser.add_argument("--seed", type=int, default=0, help="seed")
     parser.add_argument("--n-envs", type=int, default=defaults.n_envs, help="env processes")
@@ -89,20 +98,24 @@ def imitation_config(argv: list[str] | None = None) -> ImitationConfig:
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     words = sys.argv[1:] if argv is None else argv
-    return ImitationConfig(
-        out_dir=args.out,
-        seed=args.seed,
-        teacher=args.teacher,
-        n_envs=args.n_envs,
-        demo_steps=args.demo_steps,
-        rounds=args.rounds,
-        round_steps=args.round_steps,
-        epochs=args.epochs,
-        torch_threads=args.torch_threads,
-        env_kwargs={"perception": args.perception, "diagnostics": False},
-        command="python scripts/train.py " + shlex.join(words),
-        progress=not args.no_progress,
-    )
+    try:
+        return ImitationConfig(
+            out_dir=args.out,
+            seed=args.seed,
+            teacher=args.teacher,
+            teacher_settings=settings_of(args.teacher_setting),
+            n_envs=args.n_envs,
+            demo_steps=args.demo_steps,
+            rounds=args.rounds,
+            round_steps=args.round_steps,
+            epochs=args.epochs,
+            torch_threads=args.torch_threads,
+            env_kwargs={"perception": args.perception, "diagnostics": False},
+            command="python scripts/train.py " + shlex.join(words),
+            progress=not args.no_progress,
+        )
+    except ValueError as err:  # a bad setting or value, named
+        parser.error(str(err))
 
 
 def _add_backend_arguments(parser: argparse.ArgumentParser) -> None:

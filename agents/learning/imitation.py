@@ -56,6 +56,7 @@ from agents.learning.egomap import (
     STATE_FEATURES,
     EgoMapConfig,
 )
+from modeling.validation import with_overrides
 
 __all__ = [
     "ImitationConfig",
@@ -229,6 +230,9 @@ class ImitationConfig:
         seed: Seed of the network, the envs (env ``i`` resets first with ``seed * 1000 + i``,
             then continues its own stream) and the family draws.
         teacher: The teacher: ``"planner"`` (or ``"greedy"``, ``"cautious"``).
+        teacher_settings: Fields of the teacher's
+            :class:`~agents.planning.config.NavigatorConfig` (none: its defaults, the
+            suite's planner), e.g. ``{"replan_every": 1}``.
         n_envs: Env subprocesses.
         demo_steps: Env steps of teacher demonstrations (over all envs).
         rounds: DAgger rounds.
@@ -261,6 +265,7 @@ class ImitationConfig:
     out_dir: pathlib.Path
     seed: int = 0
     teacher: str = "planner"
+    teacher_settings: dict[str, Any] = field(default_factory=dict)
     n_envs: int = 2
     demo_steps: int = 60_000
     rounds: int = 4
@@ -284,12 +289,15 @@ class ImitationConfig:
     progress: bool = True
 
     def __post_init__(self) -> None:
-        from agents.planning.config import Policy
+        from agents.planning.config import NavigatorConfig, Policy
 
         if self.teacher not in {p.value for p in Policy}:
             raise ValueError(
                 f"teacher must be one of {[p.value for p in Policy]}, got {self.teacher!r}"
             )
+        if "policy" in self.teacher_settings:
+            raise ValueError("teacher_settings must not set policy (teacher names it)")
+        with_overrides(None, NavigatorConfig, self.teacher_settings)  # names a bad field
         for name in ("n_envs", "demo_steps", "batch_size", "bins", "width", "torch_threads"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
@@ -420,6 +428,7 @@ def training_vector_env(cfg: ImitationConfig) -> Any:
         families=cfg.families,
         weights=cfg.weights,
         teacher=cfg.teacher,
+        teacher_settings=cfg.teacher_settings,
         egomap=cfg.egomap,
     )
     if cfg.n_envs == 1:

@@ -15,7 +15,7 @@ the wrappers read them through :func:`agents.base.model_of`): :func:`make_traini
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import gymnasium as gym
@@ -126,14 +126,18 @@ def make_training_env(
     families: Sequence[str],
     weights: Sequence[float] | None = None,
     teacher: str | None = "planner",
+    teacher_settings: Mapping[str, Any] | None = None,
     egomap: EgoMapConfig | None = None,
 ) -> gym.Env[Any, Any]:
     """``StereoNav-v1`` with ``env_kwargs`` (``info_models=False`` added), the families mixed,
-    the teacher's labels (unless ``teacher`` is ``None``) and the egocentric observation."""
+    the teacher's labels (unless ``teacher`` is ``None``; ``teacher_settings``: fields of its
+    :class:`~agents.planning.config.NavigatorConfig`) and the egocentric observation."""
     import stereo_nav_env  # noqa: F401  (registers the ids)
+    from modeling.validation import with_overrides
 
     env: gym.Env[Any, Any] = gym.make("StereoNav-v1", **{**env_kwargs, "info_models": False})
     env = FamilyMix(env, families, weights)
     if teacher is not None:
-        env = PlannerTeacher(env, teacher)
+        navigator = with_overrides(None, NavigatorConfig, dict(teacher_settings or {}))
+        env = PlannerTeacher(env, teacher, navigator)
     return EgoMapObservation(env, egomap)

@@ -192,6 +192,23 @@ def test_reject_unknown_names_the_key_and_suggests_a_close_known_one() -> None:
         from_flat(_Tree, {"leaf": {"xx": 1}})
 
 
+def test_settings_of_reads_json_values_and_names_a_bad_word() -> None:
+    from modeling.validation import settings_of
+
+    words = ["replan_every=1", "policy=greedy", "eps=0.1", "flag=true", "text=a=b"]
+    assert settings_of(words) == {
+        "replan_every": 1,
+        "policy": "greedy",
+        "eps": 0.1,
+        "flag": True,
+        "text": "a=b",
+    }
+    assert settings_of([]) == {}
+    for bad in ("replan_every", "=1"):
+        with pytest.raises(ValueError, match=repr(bad)):
+            settings_of([bad])
+
+
 def test_with_overrides_replaces_named_fields_only() -> None:
     from modeling.validation import with_overrides
 

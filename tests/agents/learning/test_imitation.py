@@ -117,6 +117,34 @@ def test_the_recipe_trains_under_the_rules_the_suite_evaluates(tmp_path: pathlib
         **cfg.to_dict(),
         **{"torch_threads": 1, "command": shared.command},
     }
+    assert cfg.teacher_settings == {}
+
+
+def test_the_teacher_settings_reach_the_teacher_of_every_training_env(
+    tmp_path: pathlib.Path,
+) -> None:
+    from agents.learning.wrappers import make_training_env
+
+    words = ["--teacher", "planner", "--out", str(tmp_path), "--teacher-setting", "replan_every=1"]
+    cfg = load_script("train").imitation_config(words)
+    assert cfg.teacher_settings == {"replan_every": 1}
+    assert cfg.to_dict()["teacher_settings"] == {"replan_every": 1}
+    env = make_training_env(
+        dict(cfg.env_kwargs),
+        families=("room",),
+        teacher=cfg.teacher,
+        teacher_settings=cfg.teacher_settings,
+    )
+    wrapper: Any = env
+    while not isinstance(wrapper, PlannerTeacher):
+        wrapper = wrapper.env
+    assert wrapper.teacher.config.replan_every == 1
+    assert wrapper.teacher.config.policy.value == "planner"
+    env.close()
+    with pytest.raises(SystemExit):  # argparse names the bad setting
+        load_script("train").imitation_config(
+            ["--teacher", "planner", "--out", str(tmp_path), "--teacher-setting", "nope=1"]
+        )
 
 
 def test_bad_recipes_are_named(tmp_path: pathlib.Path) -> None:
@@ -130,6 +158,12 @@ def test_bad_recipes_are_named(tmp_path: pathlib.Path) -> None:
         ImitationConfig(out_dir=tmp_path, final_lr_share=0.0)
     with pytest.raises(ValueError, match="info_models"):
         ImitationConfig(out_dir=tmp_path, env_kwargs={"info_models": True})
+    with pytest.raises(ValueError, match="no_such_field"):
+        ImitationConfig(out_dir=tmp_path, teacher_settings={"no_such_field": 1})
+    with pytest.raises(ValueError, match="replan_every"):
+        ImitationConfig(out_dir=tmp_path, teacher_settings={"replan_every": 0})
+    with pytest.raises(ValueError, match="policy"):
+        ImitationConfig(out_dir=tmp_path, teacher_settings={"policy": "greedy"})
     with pytest.raises(FileNotFoundError, match="no trained policy"):
         load_policy(tmp_path / "none.pt")
 
