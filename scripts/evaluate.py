@@ -5,6 +5,7 @@
         [--json FILE] [--markdown FILE] [--plot FILE] [--details FILE] [--scenario FAMILY]
         [--families F [F ...]] [--max-steps N] [--workers K] [--terminate-on-collision]
         [--perception P] [--tilt RAD] [--fused-range M] [--ground-lines] [--surface-detail]
+        [--navigator-setting NAME=VALUE ...]
 
 ``--split dev`` (the default: seed 0 unless ``--seed``) runs suite seeds for tuning and diagnosis;
 ``--split test`` (seed 900000 unless ``--seed``) runs the seeds reserved for reported figures,
@@ -12,6 +13,9 @@ which nothing is tuned on (docs/evaluation.md). A ``--seed`` of the other split 
 The Markdown table is always printed; each file option writes its file, none by default. The suite
 runs under the StereoNav-v1 rules; each agent's JSON entry records them ("rules") and
 carries 95 % bootstrap intervals of its rates (keys ending in "_ci").
+
+``--navigator-setting replan_every=1`` sets a field of the model-based agents' (greedy, cautious,
+planner) :class:`agents.planning.config.NavigatorConfig` (repeat); the JSON records them.
 
 Agent names: random, greedy, cautious, planner, oracle, learned (the shipped policy),
 learned-fixed-head, learned:PATH, learned-fixed-head:PATH, ppo:PATH, rllib:PATH. The logic is in
@@ -42,6 +46,7 @@ from agents.evaluation.suite import (
     suite_rules,
     summarize,
 )
+from modeling.validation import settings_of
 from stereo_nav_env.perception.base import PerceptionName
 
 
@@ -88,20 +93,24 @@ def suite_of(
 ) -> SuiteConfig:
     """The :class:`SuiteConfig` of the options of :func:`add_suite_arguments` in ``args``, with
     ``env_kwargs`` and ``navigator``: the split's seed unless ``--seed`` (a seed of the other
-    split is a ``parser.error``), ``--scenario`` or ``--families``."""
+    split is a ``parser.error``, as is a value the suite refuses), ``--scenario`` or
+    ``--families``."""
     seed = default_seed(args.split) if args.seed is None else args.seed
     if seed >= 0 and split_of(seed).value != args.split:
         parser.error(f"--seed {seed} is a {split_of(seed).value} seed, not of --split {args.split}")
     families = [args.scenario] if args.scenario is not None else args.families
     kw = {} if families is None else {"families": tuple(families)}
-    return SuiteConfig(
-        episodes=args.episodes,
-        seed=seed,
-        max_steps=args.max_steps,
-        env_kwargs=env_kwargs,
-        navigator={} if navigator is None else navigator,
-        **kw,
-    )
+    try:
+        return SuiteConfig(
+            episodes=args.episodes,
+            seed=seed,
+            max_steps=args.max_steps,
+            env_kwargs=env_kwargs,
+            navigator={} if navigator is None else navigator,
+            **kw,
+        )
+    except ValueError as err:  # a bad count, family or navigator setting, named
+        parser.error(str(err))
 
 
 def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]:
@@ -151,7 +160,20 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
         help="the scenes' faces carry surface detail: seams, door frames, fronts, book spines "
         "(EnvConfig.surface_detail, stereo_nav_env.sim.scenes.surface; default: plain faces)",
     )
+    parser.add_argument(
+        "--navigator-setting",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a field of the model-based agents' NavigatorConfig, e.g. replan_every=1 (repeat)",
+    )
     args = parser.parse_args(argv)
+    try:
+        navigator = settings_of(args.navigator_setting)
+    except ValueError as err:
+        parser.error(str(err))
+    if args.fused_range > 0.0:
+        navigator["fused_range_m"] = args.fused_range
     cfg = suite_of(
         parser,
         args,
@@ -164,7 +186,7 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
         | ({"ground_lines": True} if args.ground_lines else {})
         | ({"surface_detail": True} if args.surface_detail else {})
         | ({"camera": {"tilt_rad": args.tilt}} if args.tilt is not None else {}),
-        navigator={"fused_range_m": args.fused_range} if args.fused_range > 0.0 else {},
+        navigator=navigator,
     )
     return args, cfg
 
@@ -185,6 +207,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, Any]]:
         figures["rules"] = rules
         figures["split"] = split_of(cfg.seed).value
         figures["suite_seed"] = cfg.seed
+        figures["navigator"] = dict(cfg.navigator)
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(summary, indent=2) + "\n")

@@ -164,6 +164,8 @@ class SuiteConfig:
         from stereo_nav_env.sim.scenes import FAMILIES
 
         with_overrides(None, NavigatorConfig, self.navigator)  # names a bad field or value
+        if "policy" in self.navigator:
+            raise ValueError("navigator must not set policy (each agent's name does)")
 
         for name in ("episodes", "max_steps"):
             value = getattr(self, name)

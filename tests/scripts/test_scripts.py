@@ -34,9 +34,9 @@ def test_evaluate_writes_json_markdown_plot_and_details(
     assert set(data["oracle"]) == {
         "episodes", "success_rate", "collision_rate", "mean_collisions", "spl", "mean_steps",
         "mean_looks", "mean_episode_time_s", "success_rate_ci", "spl_ci", "collision_rate_ci",
-        "rules", "split", "suite_seed",
+        "rules", "split", "suite_seed", "navigator",
     }  # fmt: skip
-    assert data["oracle"]["split"] == "dev"
+    assert data["oracle"]["split"] == "dev" and data["oracle"]["navigator"] == {}
     assert data["oracle"]["rules"]["preset"] == "v1" and data["oracle"]["rules"]["env_id"] == (
         "StereoNav-v1"
     )

@@ -53,7 +53,7 @@ def test_navigator_settings_reach_the_model_based_agents_only() -> None:
     assert type(_agent("oracle", {"fused_range_m": 1.8})).__name__ == "OracleAgent"
 
 
-def test_evaluate_cli_fused_range_turns_the_memory_on(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_evaluate_cli_sets_the_memory_and_the_navigator(monkeypatch: pytest.MonkeyPatch) -> None:
     import pathlib
     import sys
 
@@ -65,6 +65,13 @@ def test_evaluate_cli_fused_range_turns_the_memory_on(monkeypatch: pytest.Monkey
     assert off.env_kwargs["memory"] is False and off.navigator == {}
     on = suite_config(["--agent", "planner", "--json", "-", "--fused-range", "1.8"])
     assert on.env_kwargs["memory"] is True and on.navigator == {"fused_range_m": 1.8}
+    both = suite_config(
+        ["--agent", "planner", "--navigator-setting", "replan_every=1", "--fused-range", "1.8"]
+    )
+    assert both.navigator == {"replan_every": 1, "fused_range_m": 1.8}
+    for bad in ("replan_every", "replan_every=0", "no_such_field=1", "policy=greedy"):
+        with pytest.raises(SystemExit):  # argparse names the bad setting
+            suite_config(["--agent", "planner", "--navigator-setting", bad])
 
 
 def test_oracle_episode_succeeds_with_spl_near_one() -> None:
