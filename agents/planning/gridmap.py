@@ -571,11 +571,6 @@ class GateHistory:
             if crossed:
                 g.crossed, g.failed, g.p_passable = True, False, 1.0
 
-    def forget(self) -> None:
-        """Forget every gate the robot has not driven through (what views and bumps said of
-        it); the next views find the gates in sight again."""
-        self.gates = [g for g in self.gates if g.crossed]
-
     def mark_failed(self, xy: NDArray[np.floating], radius_m: float) -> list[int]:
         """Gates whose midpoint is within ``radius_m`` of ``xy`` become impassable (a bump),
         except those the robot has driven through."""

@@ -167,12 +167,10 @@ class ModelBasedAgent(Agent):
         self.decision = core.plan(pose)
         if self.decision.mode is Mode.NONE:
             # No route at all: the goal is reachable, so the map holds a false obstacle
-            # (a bump mark across a gap, a phantom seen once, a gate between phantoms or one
-            # a bump beside it closed). Keep only the recent bumps (what the robot is
-            # touching now is real) and the gates driven through, and plan again, rather
-            # than drive straight at the goal into what it already knows is there.
+            # (a bump mark across a gap, a phantom seen once). Keep only the recent bumps
+            # (what the robot is touching now is real) and plan again, rather than drive
+            # straight at the goal into what it already knows is there.
             core.occupancy.forget(self.steps - self.config.relax_keep_steps)
-            core.forget_gates()
             core.forget_route()
             self.decision = core.plan(pose)
         self._since_plan = 0

@@ -429,11 +429,6 @@ class PlannerCore:
         """Drop the route kept for hysteresis."""
         self._prev_nodes = []
 
-    def forget_gates(self) -> None:
-        """Forget the remembered gates not driven through, and the looks counted at them."""
-        self.gates.forget()
-        self.looks_at.clear()
-
     def _repaired(self, plan: SituationPlan, nodes: list[int]) -> list[int]:
         """``nodes`` up to its first move blocked in ``plan``, then ``plan``'s route from there."""
         if not nodes:

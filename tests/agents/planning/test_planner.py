@@ -221,30 +221,6 @@ def test_forgetting_old_bumps_reopens_a_map_they_closed(far_gap) -> None:
     assert core.plan((1.0, 2.5, 0.0, 0.0)).mode is not Mode.NONE
 
 
-def test_the_relax_forgets_a_closed_gate_that_leaves_no_route() -> None:
-    """A wall across the room whose one gap a bump beside it closed: with the seen cells and
-    the old bumps forgotten the closed gate still bars the only way; forgetting the remembered
-    gates (the relax of ``ModelBasedAgent``) opens it, and the gate comes back with the view."""
-    segs = wall_segments(4.0, [(0.05, 2.24), (2.76, 5.95)], 0.12)  # 0.52 m: undecided
-    view = model_of(segs, (0.4, 2.5, 0.0))
-    core = _core("planner", (0, 0, 7, 6), (6.0, 2.5))
-    core.observe(view, 0)
-    (gate,) = core.gates.gates
-    assert core.plan((1.5, 2.5, 0.0, 0.0)).mode is not Mode.NONE
-    assert core.gates.mark_failed(gate.midpoint, 0.1) == [0]
-    assert core.plan((1.5, 2.5, 0.0, 0.0)).mode is Mode.NONE
-    core.occupancy.forget(100 - core.config.relax_keep_steps)
-    assert core.plan((1.5, 2.5, 0.0, 0.0)).mode is Mode.NONE  # the gate still bars the gap
-    core.looks_at[0] = 1
-    core.forget_gates()
-    assert core.gates.gates == [] and core.looks_at == {}
-    decision = core.plan((1.5, 2.5, 0.0, 0.0))
-    assert decision.mode is not Mode.NONE
-    assert abs(_crossing_y(decision.waypoints, 4.0) - 2.5) < 0.2  # through the gap
-    core.observe(view, 1)
-    assert len(core.gates.gates) == 1 and not core.gates.gates[0].failed
-
-
 def test_the_expected_gate_weight() -> None:
     """``L + (1 - p) max(0, C_fail + V_alt - L - V_open)``: certain, undecided, no worse."""
     assert expected_gate_weight(1.0, 1.0, 2.0, 10.0, 3.0) == 1.0
