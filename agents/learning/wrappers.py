@@ -23,6 +23,7 @@ import numpy as np
 
 from agents.learning.egomap import EgoMap, EgoMapConfig
 from agents.planning.config import NavigatorConfig
+from modeling.validation import with_overrides
 
 __all__ = ["EgoMapObservation", "FamilyMix", "PlannerTeacher", "make_training_env"]
 
@@ -133,7 +134,6 @@ def make_training_env(
     the teacher's labels (unless ``teacher`` is ``None``; ``teacher_settings``: fields of its
     :class:`~agents.planning.config.NavigatorConfig`) and the egocentric observation."""
     import stereo_nav_env  # noqa: F401  (registers the ids)
-    from modeling.validation import with_overrides
 
     env: gym.Env[Any, Any] = gym.make("StereoNav-v1", **{**env_kwargs, "info_models": False})
     env = FamilyMix(env, families, weights)
