@@ -46,7 +46,8 @@ from agents.evaluation.suite import (
     suite_rules,
     summarize,
 )
-from modeling.validation import settings_of
+from agents.planning.config import NavigatorConfig
+from modeling.validation import settings_of, with_overrides
 from stereo_nav_env.perception.base import PerceptionName
 
 
@@ -78,6 +79,28 @@ def add_trace_arguments(parser: argparse.ArgumentParser, *, json_help: str) -> N
     parser.add_argument("--only", type=int, nargs="+", default=None, help="episode indices")
     parser.add_argument("--perception", default="stereo", help="the env's perception")
     parser.add_argument("--json", type=pathlib.Path, help=json_help)
+
+
+def add_navigator_settings(parser: argparse.ArgumentParser, flag: str, whose: str) -> None:
+    """Add ``flag`` (repeatable ``NAME=VALUE``): a field of ``whose`` ``NavigatorConfig``."""
+    parser.add_argument(
+        flag,
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help=f"a field of {whose} NavigatorConfig, e.g. replan_every=1 (repeat)",
+    )
+
+
+def navigator_settings(parser: argparse.ArgumentParser, words: list[str]) -> dict[str, Any]:
+    """``{name: value}`` of the words of an option of :func:`add_navigator_settings`; a word
+    that is not ``NAME=VALUE``, an unknown field or a bad value is a ``parser.error``."""
+    try:
+        settings = settings_of(words)
+        with_overrides(None, NavigatorConfig, settings)  # names a bad field or value
+    except ValueError as err:
+        parser.error(str(err))
+    return settings
 
 
 def chosen_episodes(cfg: SuiteConfig, only: list[int] | None) -> list[EpisodeSpec]:
@@ -160,18 +183,9 @@ def _arguments(argv: list[str] | None) -> tuple[argparse.Namespace, SuiteConfig]
         help="the scenes' faces carry surface detail: seams, door frames, fronts, book spines "
         "(EnvConfig.surface_detail, stereo_nav_env.sim.scenes.surface; default: plain faces)",
     )
-    parser.add_argument(
-        "--navigator-setting",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        help="a field of the model-based agents' NavigatorConfig, e.g. replan_every=1 (repeat)",
-    )
+    add_navigator_settings(parser, "--navigator-setting", "the model-based agents'")
     args = parser.parse_args(argv)
-    try:
-        navigator = settings_of(args.navigator_setting)
-    except ValueError as err:
-        parser.error(str(err))
+    navigator = navigator_settings(parser, args.navigator_setting)
     if args.fused_range > 0.0:
         navigator["fused_range_m"] = args.fused_range
     cfg = suite_of(

@@ -27,12 +27,17 @@ from typing import Any
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
 import numpy as np
-from evaluate import add_suite_arguments, add_trace_arguments, chosen_episodes, suite_of
+from evaluate import (
+    add_navigator_settings,
+    add_suite_arguments,
+    add_trace_arguments,
+    chosen_episodes,
+    navigator_settings,
+    suite_of,
+)
 
 from agents.evaluation.student import student_patterns, trace_student
 from agents.evaluation.suite import EpisodeSpec, SuiteConfig
-from agents.planning.config import NavigatorConfig
-from modeling.validation import settings_of, with_overrides
 
 MEANS = (
     "steps",
@@ -70,22 +75,12 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--agent", default="learned", help="learned or learned:PATH")
     parser.add_argument("--teacher", default="planner", help="planner, greedy or cautious")
-    parser.add_argument(
-        "--teacher-setting",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        help="a field of the teacher's NavigatorConfig (repeat)",
-    )
+    add_navigator_settings(parser, "--teacher-setting", "the teacher's")
     add_suite_arguments(parser)
     add_trace_arguments(parser, json_help="per-episode and mean JSON file")
     args = parser.parse_args(argv)
     cfg = suite_of(parser, args, env_kwargs={"diagnostics": False, "perception": args.perception})
-    try:
-        settings = settings_of(args.teacher_setting)
-        with_overrides(None, NavigatorConfig, settings)  # names a bad field or value
-    except ValueError as err:
-        parser.error(str(err))
+    settings = navigator_settings(parser, args.teacher_setting)
     specs = chosen_episodes(cfg, args.only)
     jobs = [(args.agent, args.teacher, settings, spec, cfg) for spec in specs]
     if args.workers == 1:
