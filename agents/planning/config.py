@@ -46,6 +46,11 @@ class NavigatorConfig:
         look_range_m: Regions farther than this are not looked at.
         min_gain_m: A look must save at least this much, metres.
         min_approach_gain_m: An approach (a change of route) must save at least this much, metres.
+        keep_route_m: Hysteresis: a re-plan keeps the previous route (repaired where it is now
+            blocked) unless the new best one is cheaper by more than this or by
+            ``keep_route_share`` of its cost, whichever is more, so that the robot does not swing
+            between two ways round (0 and 0: the cheapest route at every re-plan, ties kept).
+        keep_route_share: See ``keep_route_m``.
         max_looks_per_gate: Looks at one gate at most.
         stall_steps: Back off after this many steps with less than 0.15 m of movement.
         forget_steps: When the robot has come no nearer to the goal (by 0.3 m) for this many
@@ -89,6 +94,8 @@ class NavigatorConfig:
     look_range_m: float = 6.0
     min_gain_m: float = 0.05
     min_approach_gain_m: float = 0.5
+    keep_route_m: float = 0.5
+    keep_route_share: float = 0.1
     max_looks_per_gate: int = 2
     stall_steps: int = 40
     forget_steps: int = 100
@@ -111,3 +118,5 @@ class NavigatorConfig:
         integer(self.replan_every, "replan_every", low=1)
         positive(self.fused_range_m, "fused_range_m", allow_zero=True)
         positive(self.progress_reset_m, "progress_reset_m", allow_zero=True)
+        positive(self.keep_route_m, "keep_route_m", allow_zero=True)
+        number(self.keep_route_share, "keep_route_share", low=0.0, high=1.0, strict=False)

@@ -496,7 +496,8 @@ class PlannerCore:
             kept_score = float(
                 sum(p * self._route_cost(pl, kept) for p, (_, pl) in zip(probs, valid, strict=True))
             )
-            if kept_score <= scores[best_k] + max(0.5, 0.1 * scores[best_k]):
+            margin = max(cfg.keep_route_m, cfg.keep_route_share * scores[best_k])
+            if kept_score <= scores[best_k] + margin:
                 nodes = [best_plan.start, *kept] if kept[0] != best_plan.start else kept
                 scores[-1] = kept_score
                 best_k = -1

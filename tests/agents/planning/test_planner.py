@@ -226,3 +226,27 @@ def test_the_expected_gate_weight() -> None:
     assert expected_gate_weight(1.0, 1.0, 2.0, 10.0, 3.0) == 1.0
     assert expected_gate_weight(1.0, 0.25, 2.0, 10.0, 3.0) == pytest.approx(1.0 + 0.75 * 8.0)
     assert expected_gate_weight(1.0, 0.25, 2.0, 0.5, 3.0) == 1.0  # the alternative is no worse
+
+
+@pytest.mark.parametrize(
+    ("keep", "expected_y"), [({}, 2.0), ({"keep_route_m": 0.0, "keep_route_share": 0.0}, 4.0)]
+)
+def test_a_replan_keeps_its_route_unless_the_hysteresis_is_off(keep, expected_y) -> None:
+    """Two wide gaps (y = 2 and 4 m) in a wall at x = 3 m, the goal midway beyond: from just
+    below the middle the route takes the lower gap; 0.2 m above the middle the upper one is 0.3
+    m shorter, within the default margin (0.5 m), so the route is kept unless the margin is 0."""
+    segs = wall_segments(3.0, [(0.1, 1.4), (2.6, 3.4), (4.6, 5.9)], 0.03)
+    core = _core("greedy", (0, 0, 6, 6), (5.0, 3.0), **keep)
+    core.observe(model_of(segs, (1.0, 2.9, 0.0)), 0)
+    assert _crossing_y(core.plan((1.0, 2.9, 0.0, 0.0)).waypoints, 3.0) == pytest.approx(
+        2.0, abs=0.2
+    )
+    replanned = core.plan((1.0, 3.1, 0.0, 0.0))
+    assert _crossing_y(replanned.waypoints, 3.0) == pytest.approx(expected_y, abs=0.2)
+
+
+def test_the_hysteresis_margins_are_checked() -> None:
+    with pytest.raises(ValueError, match="keep_route_m"):
+        NavigatorConfig(keep_route_m=-0.1)
+    with pytest.raises(ValueError, match="keep_route_share"):
+        NavigatorConfig(keep_route_share=1.5)
