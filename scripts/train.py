@@ -2,7 +2,7 @@
 
     python scripts/train.py --teacher planner --out DIR [--seed S] [--n-envs K]
         [--perception surrogate|stereo] [--demo-steps N] [--rounds R] [--round-steps N]
-        [--epochs E] [--teacher-setting NAME=VALUE ...]
+        [--epochs E] [--mirror-share S] [--teacher-setting NAME=VALUE ...]
 
     python scripts/train.py --timesteps N --out DIR [--algo ppo|recurrent-ppo] [--n-envs K]
         [--perception stereo|surrogate] [--scenario NAME] [--curriculum [FAMILY ...]]
@@ -90,6 +90,12 @@ def imitation_config(argv: list[str] | None = None) -> ImitationConfig:
         "--epochs", type=int, default=defaults.epochs, help="passes over the data per phase"
     )
     parser.add_argument(
+        "--mirror-share",
+        type=float,
+        default=defaults.mirror_share,
+        help="share of each minibatch replaced by its left-right mirror image",
+    )
+    parser.add_argument(
         "--torch-threads",
         type=int,
         default=defaults.torch_threads,
@@ -109,6 +115,7 @@ def imitation_config(argv: list[str] | None = None) -> ImitationConfig:
             rounds=args.rounds,
             round_steps=args.round_steps,
             epochs=args.epochs,
+            mirror_share=args.mirror_share,
             torch_threads=args.torch_threads,
             env_kwargs={"perception": args.perception, "diagnostics": False},
             command="python scripts/train.py " + shlex.join(words),

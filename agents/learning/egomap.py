@@ -101,11 +101,13 @@ from modeling.validation import reject_unknown
 
 __all__ = [
     "CHANNELS",
+    "MIRROR_ODD_FEATURES",
     "OBSERVATION_VERSION",
     "STATE_FEATURES",
     "EgoMap",
     "EgoMapConfig",
     "grid_cost_to_go",
+    "mirrored",
 ]
 
 OBSERVATION_VERSION = 1
@@ -130,6 +132,40 @@ STATE_FEATURES = (
     "situation_p2",
     *(f"region{k}_{f}" for k in range(2) for f in ("valid", "x", "y", "width", "std", "p")),
 )
+
+MIRROR_ODD_FEATURES = (
+    "goal_sin",
+    "route_sin",
+    "head_pan",
+    "prev_turn",
+    "prev_pan",
+    "region0_y",
+    "region1_y",
+)
+"""The state features that change sign in the left-right mirror image of a scene (lateral
+coordinates, bearings' sines, turns and pans); the others are unchanged by it."""
+_MIRROR_SIGN = np.array(
+    [-1.0 if name in MIRROR_ODD_FEATURES else 1.0 for name in STATE_FEATURES], dtype=np.float32
+)
+
+
+def mirrored(
+    maps: NDArray[np.uint8], states: NDArray[np.float32]
+) -> tuple[NDArray[np.uint8], NDArray[np.float32]]:
+    """The observations of the left-right mirror image of the scenes: each map's columns
+    reversed (the robot sits between columns ``S/2 - 1`` and ``S/2``, so its left becomes its
+    right exactly) and :data:`MIRROR_ODD_FEATURES` negated. Batches ``(n, C, S, S)`` and
+    ``(n, V)``; a command's turn and pan change sign with them. The one asymmetry it leaves:
+    the 2 x 2 dilation that widens obstacle lines adds its pixel on the robot's right in the
+    observation, so on its left in the mirror."""
+    maps = np.asarray(maps)
+    states = np.asarray(states, dtype=np.float32)
+    if maps.ndim != 4 or states.ndim != 2 or states.shape[-1] != len(STATE_FEATURES):
+        raise ValueError(
+            f"mirrored needs maps (n, C, S, S) and states (n, {len(STATE_FEATURES)}), "
+            f"got {maps.shape} and {states.shape}"
+        )
+    return np.ascontiguousarray(maps[..., ::-1]), states * _MIRROR_SIGN
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

@@ -55,6 +55,7 @@ from agents.learning.egomap import (
     OBSERVATION_VERSION,
     STATE_FEATURES,
     EgoMapConfig,
+    mirrored,
 )
 from modeling.validation import with_overrides
 
@@ -247,6 +248,10 @@ class ImitationConfig:
             0.1 ended every phase on a higher training loss (0.92-0.93 after the last round
             against 0.86-0.87 at 1) and drove worse in their last round (docs/training.md):
             the student is under-fitted, not shaken off a minimum by a large step.
+        mirror_share: Share of each minibatch replaced by its left-right mirror image
+            (:func:`agents.learning.egomap.mirrored`, the turn and pan labels negated): the
+            scenes have no preferred side, so the mirror is a sample of the same task (0, the
+            recipe's: none).
         validation_share: Share of the samples held out of the fits (drawn per sample as it is
             stored); each phase's record gives the loss and the per-command bin accuracy on
             them, to tell an under-fitted student from one that fits but drives badly.
@@ -275,6 +280,7 @@ class ImitationConfig:
     batch_size: int = 256
     learning_rate: float = 1e-3
     final_lr_share: float = 1.0
+    mirror_share: float = 0.0
     validation_share: float = 0.05
     bins: int = 11
     width: int = 256
@@ -310,6 +316,8 @@ class ImitationConfig:
             raise ValueError(f"bins must be at least 3, got {self.bins}")
         if not 0.0 < self.final_lr_share <= 1.0:
             raise ValueError(f"final_lr_share must lie in (0, 1], got {self.final_lr_share!r}")
+        if not 0.0 <= self.mirror_share <= 1.0:
+            raise ValueError(f"mirror_share must lie in [0, 1], got {self.mirror_share!r}")
         if not 0.0 <= self.validation_share < 0.5:
             raise ValueError(
                 f"validation_share must lie in [0, 0.5), got {self.validation_share!r}"
@@ -490,6 +498,27 @@ def _bin_loss(logits: Any, targets: Any) -> Any:
     return -(targets * torch.log_softmax(logits, dim=-1)).sum(dim=-1).mean()
 
 
+def _minibatch(
+    maps: NDArray[np.uint8],
+    states: NDArray[np.float32],
+    targets: NDArray[np.float32],
+    idx: NDArray[np.int64],
+    mirror_share: float,
+    rng: np.random.Generator,
+) -> tuple[NDArray[np.uint8], NDArray[np.float32], NDArray[np.float32]]:
+    """The samples ``idx`` (maps, states, soft targets), each replaced by its mirror image with
+    probability ``mirror_share``: :func:`mirrored` observation, turn and pan bins reversed (the
+    bins are symmetric about 0, so that is the target of the negated command)."""
+    image, state, target = maps[idx], states[idx], targets[idx]
+    if mirror_share <= 0.0:
+        return image, state, target
+    flip = rng.random(idx.size) < mirror_share
+    if flip.any():
+        image[flip], state[flip] = mirrored(image[flip], state[flip])
+        target[flip, 1:] = target[flip, 1:, ::-1]
+    return image, state, target
+
+
 def _fit(
     bundle: PolicyBundle,
     data: _Dataset,
@@ -525,9 +554,10 @@ def _fit(
         total = 0.0
         for start in range(0, order.size, cfg.batch_size):
             idx = np.sort(order[start : start + cfg.batch_size])
-            image = torch.from_numpy(maps[idx]).contiguous(memory_format=layout)
-            logits = net(image, torch.from_numpy(states[idx]))
-            loss = _bin_loss(logits, torch.from_numpy(targets[idx]))
+            batch = _minibatch(maps, states, targets, idx, cfg.mirror_share, rng)
+            image = torch.from_numpy(batch[0]).contiguous(memory_format=layout)
+            logits = net(image, torch.from_numpy(batch[1]))
+            loss = _bin_loss(logits, torch.from_numpy(batch[2]))
             optimiser.zero_grad()
             loss.backward()
             optimiser.step()

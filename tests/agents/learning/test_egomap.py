@@ -16,10 +16,12 @@ from agents import make_agent
 from agents.base import robot_pose
 from agents.learning.egomap import (
     CHANNELS,
+    MIRROR_ODD_FEATURES,
     STATE_FEATURES,
     EgoMap,
     EgoMapConfig,
     grid_cost_to_go,
+    mirrored,
 )
 from agents.learning.wrappers import EgoMapObservation
 from stereo_nav_env.sim.scenes import load_scenario
@@ -139,6 +141,36 @@ def test_the_goal_channel_and_bearing_follow_the_robot_frame() -> None:
         col = 0.5 * cfg.size_px - left / cfg.cell_m
         assert abs(rows.mean() + 0.5 - row) < 1.5 and abs(cols.mean() + 0.5 - col) < 1.5
     env.close()
+
+
+def test_the_mirror_image_puts_the_goal_on_the_other_side() -> None:
+    """In the mirror of an observation the goal's pixels and its bearing change side together,
+    the robot's position is unchanged, and mirroring twice gives the observation back."""
+    env = EgoMapObservation(gym.make("StereoNav-v1", scenario="open", perception="surrogate"))
+    for seed in range(20):
+        obs, _ = env.reset(seed=seed)
+        goal = obs["map"][CHANNELS.index("goal")]
+        if goal.any() and abs(float(obs["state"][2])) > 0.2:
+            break
+    else:
+        pytest.fail("no start in 20 with the goal in the map and to one side")
+    env.close()
+    maps, states = mirrored(obs["map"][None], obs["state"][None])
+    size = obs["map"].shape[-1]
+    cols = np.nonzero(goal)[1].mean() + 0.5
+    mirror_cols = np.nonzero(maps[0, CHANNELS.index("goal")])[1].mean() + 0.5
+    assert mirror_cols == pytest.approx(size - cols)  # left m -> right m of the centre
+    assert np.sign(mirror_cols - 0.5 * size) == -np.sign(cols - 0.5 * size)
+    assert states[0, 2] == -obs["state"][2] and states[0, 1] == obs["state"][1]
+    odd = [STATE_FEATURES.index(n) for n in MIRROR_ODD_FEATURES]
+    even = [k for k in range(len(STATE_FEATURES)) if k not in odd]
+    np.testing.assert_array_equal(states[0, odd], -obs["state"][odd])
+    np.testing.assert_array_equal(states[0, even], obs["state"][even])
+    again = mirrored(maps, states)
+    np.testing.assert_array_equal(again[0][0], obs["map"])
+    np.testing.assert_array_equal(again[1][0], obs["state"])
+    with pytest.raises(ValueError, match="mirrored needs"):
+        mirrored(obs["map"], obs["state"])
 
 
 def test_cost_to_go_is_the_grid_distance_around_a_wall() -> None:

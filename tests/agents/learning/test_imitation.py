@@ -13,13 +13,14 @@ import pytest
 import stereo_nav_env  # noqa: F401  (registers the ids)
 from agents import make_agent
 from agents.evaluation.suite import SuiteConfig, suite_rules
-from agents.learning.egomap import EgoMapConfig
+from agents.learning.egomap import EgoMapConfig, mirrored
 from agents.learning.imitation import (
     ImitationConfig,
     PolicyBundle,
     _bin_loss,
     _Dataset,
     _fit,
+    _minibatch,
     _new_bundle,
     _validate,
     decode_bins,
@@ -145,6 +146,11 @@ def test_the_teacher_settings_reach_the_teacher_of_every_training_env(
         load_script("train").imitation_config(
             ["--teacher", "planner", "--out", str(tmp_path), "--teacher-setting", "nope=1"]
         )
+    mirror = load_script("train").imitation_config([*words[:4], "--mirror-share", "0.5"])
+    assert mirror.mirror_share == 0.5 and mirror.to_dict()["mirror_share"] == 0.5
+    assert cfg.mirror_share == 0.0  # the recipe's
+    with pytest.raises(SystemExit):
+        load_script("train").imitation_config([*words[:4], "--mirror-share", "2"])
 
 
 def test_bad_recipes_are_named(tmp_path: pathlib.Path) -> None:
@@ -156,6 +162,8 @@ def test_bad_recipes_are_named(tmp_path: pathlib.Path) -> None:
         ImitationConfig(out_dir=tmp_path, validation_share=0.5)
     with pytest.raises(ValueError, match="final_lr_share"):
         ImitationConfig(out_dir=tmp_path, final_lr_share=0.0)
+    with pytest.raises(ValueError, match="mirror_share"):
+        ImitationConfig(out_dir=tmp_path, mirror_share=1.5)
     with pytest.raises(ValueError, match="info_models"):
         ImitationConfig(out_dir=tmp_path, env_kwargs={"info_models": True})
     with pytest.raises(ValueError, match="no_such_field"):
@@ -316,3 +324,26 @@ def test_the_dataset_keeps_every_sample_whether_it_reserved_room_or_grew() -> No
     for other in held[1:]:  # the held-out draws do not depend on the storage
         np.testing.assert_array_equal(other, held[0])
     assert 0 < held[0].sum() < 12
+
+
+def test_a_mirrored_sample_is_the_mirror_observation_with_turn_and_pan_negated() -> None:
+    rng = np.random.default_rng(3)
+    maps = rng.integers(0, 256, size=(6, 8, 16, 16), dtype=np.uint8)
+    states = rng.uniform(-1, 1, size=(6, 27)).astype(np.float32)
+    actions = rng.uniform(-1, 1, size=(6, 3)).astype(np.float32)
+    targets = encode_bins(actions, 11)
+    stored = (maps.copy(), states.copy(), targets.copy())
+    idx = np.array([1, 4, 5])
+    same = _minibatch(maps, states, targets, idx, 0.0, rng)
+    for got, want in zip(same, (maps, states, targets), strict=True):
+        np.testing.assert_array_equal(got, want[idx])
+    image, state, target = _minibatch(maps, states, targets, idx, 1.0, rng)
+    want_maps, want_states = mirrored(maps[idx], states[idx])
+    np.testing.assert_array_equal(image, want_maps)
+    np.testing.assert_array_equal(state, want_states)
+    np.testing.assert_allclose(target, encode_bins(actions[idx] * [1, -1, -1], 11), atol=1e-6)
+    for got, want in zip((maps, states, targets), stored, strict=True):
+        np.testing.assert_array_equal(got, want)  # the data set is not touched
+    half = _minibatch(maps, states, targets, np.arange(6), 0.5, np.random.default_rng(0))
+    flipped = [not np.array_equal(half[0][k], maps[k]) for k in range(6)]
+    assert 0 < sum(flipped) < 6
