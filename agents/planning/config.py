@@ -66,7 +66,8 @@ class NavigatorConfig:
         bump_mark_m: Length of the face marked by a bump whose contact normal was measured.
         bump_guess_m: Length of the mark across the motion when the normal is unknown.
         relax_keep_steps: When the occupancy map leaves no route to the goal at all, bumps older
-            than this and what was seen are forgotten (the map must hold a false obstacle).
+            than this and what was seen are forgotten, and the gates those bumps closed are
+            open again (the map must hold a false obstacle; ``PlannerCore.relax``).
         shortcut_m: The follower joins a later part of the route passing this close to the robot
             (a route that first steps back to a cell behind the robot and then passes it again).
         gaze_ahead_m: The planner, when not looking at a gate, points its head at the route

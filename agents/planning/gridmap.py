@@ -394,6 +394,8 @@ class Gate:
         viewed_distance_m: Smallest distance from which it has been in view since that estimate.
         last_step: Step of the last observation that matched it.
         failed: The robot bumped trying to cross it (then ``p_passable`` is 0).
+        failed_step: Step of the bump that closed it (``None`` while not failed).
+        p_before_failure: ``p_passable`` just before that bump (what a re-opening restores).
         crossed: The robot has driven through it (then ``p_passable`` is 1, and a bump near it
             does not close it).
     """
@@ -407,6 +409,8 @@ class Gate:
     viewed_distance_m: float
     last_step: int = 0
     failed: bool = False
+    failed_step: int | None = None
+    p_before_failure: float = 0.0
     crossed: bool = False
 
     @property
@@ -571,14 +575,27 @@ class GateHistory:
             if crossed:
                 g.crossed, g.failed, g.p_passable = True, False, 1.0
 
-    def mark_failed(self, xy: NDArray[np.floating], radius_m: float) -> list[int]:
-        """Gates whose midpoint is within ``radius_m`` of ``xy`` become impassable (a bump),
-        except those the robot has driven through."""
+    def mark_failed(self, xy: NDArray[np.floating], radius_m: float, step: int = 0) -> list[int]:
+        """Gates whose midpoint is within ``radius_m`` of ``xy`` become impassable (a bump at
+        ``step``), except those the robot has driven through."""
         out = []
         p = np.asarray(xy, dtype=np.float64).reshape(2)
         for k, g in enumerate(self.gates):
             if not g.settled and float(np.hypot(*(g.midpoint - p))) <= radius_m:
-                g.failed = True
-                g.p_passable = 0.0
+                g.p_before_failure = g.p_passable
+                g.failed, g.failed_step, g.p_passable = True, step, 0.0
+                out.append(k)
+        return out
+
+    def reopen(self, before_step: int) -> list[int]:
+        """Gates closed by a bump before ``before_step`` are open again, with the passability
+        the views gave them before it (and the views update them again); returns their
+        indices. The planner's relax forgets the bump marks older than a few steps and, with
+        this, the gates those bumps closed: a bump closes every gate within reach of the robot,
+        not only the one it was crossing."""
+        out = []
+        for k, g in enumerate(self.gates):
+            if g.failed and g.failed_step is not None and g.failed_step < before_step:
+                g.failed, g.failed_step, g.p_passable = False, None, g.p_before_failure
                 out.append(k)
         return out

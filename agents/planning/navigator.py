@@ -166,12 +166,9 @@ class ModelBasedAgent(Agent):
         core = self.core
         self.decision = core.plan(pose)
         if self.decision.mode is Mode.NONE:
-            # No route at all: the goal is reachable, so the map holds a false obstacle
-            # (a bump mark across a gap, a phantom seen once). Keep only the recent bumps
-            # (what the robot is touching now is real) and plan again, rather than drive
-            # straight at the goal into what it already knows is there.
-            core.occupancy.forget(self.steps - self.config.relax_keep_steps)
-            core.forget_route()
+            # No route at all: relax the map and plan again, rather than drive straight at
+            # the goal into what it already knows is there.
+            core.relax(self.steps - self.config.relax_keep_steps)
             self.decision = core.plan(pose)
         self._since_plan = 0
         if self.decision.mode is Mode.LOOK and self.decision.gate is not None:

@@ -211,7 +211,7 @@ class PlannerCore:
             length = self.config.bump_guess_m
         front = np.array([x, y]) + (r + 0.05) * np.array([math.cos(direction), math.sin(direction)])
         self.occupancy.add_bump(front, direction, length, step)
-        return self.gates.mark_failed(np.array([x, y]), r + 0.35)
+        return self.gates.mark_failed(np.array([x, y]), r + 0.35, step)
 
     # ------------------------------------------------------------------ gate treatment
     def _effective_p(self, p: float, failed: bool) -> float:
@@ -428,6 +428,16 @@ class PlannerCore:
     def forget_route(self) -> None:
         """Drop the route kept for hysteresis."""
         self._prev_nodes = []
+
+    def relax(self, before_step: int) -> None:
+        """The map leaves no route at all although the goal is reachable, so it holds a false
+        obstacle (a bump mark across a gap, a phantom seen once, a gate a bump beside it
+        closed): forget what was seen and the bump marks before ``before_step``, re-open the
+        gates those bumps closed, and drop the kept route. The recent bumps stay (what the
+        robot is touching now is real), and so do the gates they closed."""
+        self.occupancy.forget(before_step)
+        self.gates.reopen(before_step)
+        self.forget_route()
 
     def _repaired(self, plan: SituationPlan, nodes: list[int]) -> list[int]:
         """``nodes`` up to its first move blocked in ``plan``, then ``plan``'s route from there."""

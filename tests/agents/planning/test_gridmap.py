@@ -119,6 +119,23 @@ def test_gate_history_matches_and_keeps_the_sharper_estimate() -> None:
     assert gate.failed and gate.p_passable == 0.0
 
 
+def test_a_gate_closed_by_an_old_bump_reopens_with_its_passability_and_a_recent_one_not() -> None:
+    segs = wall_segments(4.0, [(0.5, 1.74), (2.26, 3.5)], 0.1)
+    gates = GateHistory()
+    gates.update(model_of(segs, (0.0, 2.0, 0.0)), step=0)
+    (gate,) = gates.gates
+    seen_p = gate.p_passable
+    assert 0.05 < seen_p < 0.95
+    assert gates.mark_failed(np.array([3.8, 2.0]), 0.5, step=40) == [0]
+    assert gate.failed and gate.failed_step == 40 and gate.p_passable == 0.0
+    assert gates.reopen(before_step=40) == [] and gate.failed  # the bump is recent
+    assert gates.reopen(before_step=41) == [0]
+    assert not gate.failed and gate.failed_step is None and gate.p_passable == seen_p
+    gates.update(model_of(wall_segments(4.0, [(0.5, 3.5)], 0.02), (2.0, 2.0, 0.0)), step=50)
+    assert gate.p_passable == 0.0  # open to views again: one wall, no gap
+    assert gates.reopen(before_step=100) == []  # a view closed it, not a bump
+
+
 def test_a_closer_view_decides_a_remembered_gate_from_its_sides() -> None:
     """A remembered gate in clear view, closer than before, with no region there now: passable
     when its two ends lie on two obstacles, impassable when on one."""

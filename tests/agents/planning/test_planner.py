@@ -217,8 +217,28 @@ def test_forgetting_old_bumps_reopens_a_map_they_closed(far_gap) -> None:
     for y in np.arange(0.2, 6.0, 0.5):
         core.occupancy.add_bump(np.array([5.0, y]), 0.0, 0.6, step=1)
     assert core.plan((1.0, 2.5, 0.0, 0.0)).mode is Mode.NONE
-    core.occupancy.forget(100 - core.config.relax_keep_steps)
+    core.relax(100 - core.config.relax_keep_steps)
     assert core.plan((1.0, 2.5, 0.0, 0.0)).mode is not Mode.NONE
+
+
+@pytest.mark.parametrize(("bump_step", "reopened"), [(10, True), (90, False)])
+def test_the_relax_reopens_the_only_gap_an_old_bump_closed(bump_step, reopened) -> None:
+    """A wall across the whole room with one undecided 0.52 m gap: a bump at its mouth closes
+    it and leaves no route. At step 100 the relax (keeping the last 30 steps) opens it again
+    when the bump is old (the robot can try again), not when it is recent."""
+    segs = wall_segments(4.0, [(0.0, 2.24), (2.76, 6.0)], 0.12)
+    core = _core("planner", (0, 0, 7, 6), (6.0, 2.5))
+    core.observe(model_of(segs, (0.4, 2.5, 0.0)), 0)
+    assert core.bump((3.6, 2.5, 0.0, 0.0), backwards=False, step=bump_step) == [0]
+    assert core.plan((3.0, 2.5, 0.0, 0.0)).mode is Mode.NONE
+    core.relax(100 - core.config.relax_keep_steps)
+    decision = core.plan((3.0, 2.5, 0.0, 0.0))
+    assert core.gates.gates[0].failed is not reopened
+    if reopened:
+        assert decision.mode is not Mode.NONE
+        assert _crossing_y(decision.waypoints, 4.0) == pytest.approx(2.5, abs=0.15)
+    else:
+        assert decision.mode is Mode.NONE
 
 
 def test_the_expected_gate_weight() -> None:
