@@ -394,7 +394,8 @@ class Gate:
         viewed_distance_m: Smallest distance from which it has been in view since that estimate.
         last_step: Step of the last observation that matched it.
         failed: The robot bumped trying to cross it (then ``p_passable`` is 0).
-        failed_step: Step of the bump that closed it (``None`` while not failed).
+        failed_step: Step of the bump that closed it (``None`` while not failed, and for a gate
+            set failed without one: never re-opened).
         p_before_failure: ``p_passable`` just before that bump (what a re-opening restores).
         crossed: The robot has driven through it (then ``p_passable`` is 1, and a bump near it
             does not close it).
