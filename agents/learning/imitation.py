@@ -498,6 +498,10 @@ def _bin_loss(logits: Any, targets: Any) -> Any:
     return -(targets * torch.log_softmax(logits, dim=-1)).sum(dim=-1).mean()
 
 
+_MIRROR_ODD_COMMANDS = slice(1, 3)
+"""The commands (forward, turn, pan) that change sign in the mirror image: turn and pan."""
+
+
 def _minibatch(
     maps: NDArray[np.uint8],
     states: NDArray[np.float32],
@@ -515,7 +519,7 @@ def _minibatch(
     flip = rng.random(idx.size) < mirror_share
     if flip.any():
         image[flip], state[flip] = mirrored(image[flip], state[flip])
-        target[flip, 1:] = target[flip, 1:, ::-1]
+        target[flip, _MIRROR_ODD_COMMANDS] = target[flip, _MIRROR_ODD_COMMANDS, ::-1]
     return image, state, target
 
 
