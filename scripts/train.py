@@ -3,6 +3,10 @@
     python scripts/train.py --teacher planner --out DIR [--seed S] [--n-envs K]
         [--perception surrogate|stereo] [--demo-steps N] [--rounds R] [--round-steps N]
         [--epochs E] [--mirror-share S] [--teacher-setting NAME=VALUE ...]
+        [--finetune-steps N]
+
+    python scripts/train.py --finetune POLICY --out DIR [--seed S] [--n-envs K]
+        [--finetune-steps N] [--torch-threads T]
 
     python scripts/train.py --timesteps N --out DIR [--algo ppo|recurrent-ppo] [--n-envs K]
         [--perception stereo|surrogate] [--scenario NAME] [--curriculum [FAMILY ...]]
@@ -17,6 +21,10 @@ rebuilt along the student's trajectory, labels every state. It writes DIR/policy
 as learned:DIR/policy.pt), DIR/record.json and DIR/curve.csv. Its defaults are
 :class:`agents.learning.imitation.ImitationConfig`'s; ``--teacher-setting replan_every=1``
 sets a field of the teacher's :class:`agents.planning.config.NavigatorConfig` (repeat).
+With ``--finetune-steps N`` (N > 0) the imitation's policy is then fine-tuned with PPO for N env
+steps under the same rules (:mod:`agents.learning.finetune`): DIR/policy.pt becomes the
+fine-tuned policy (the imitation's stays in DIR/checkpoints/), beside DIR/finetune.json and
+DIR/finetune_curve.csv. ``--finetune POLICY`` fine-tunes a policy.pt already trained.
 
 --backend rllib trains with Ray RLlib instead (agents.learning.rllib.backend, docs/rllib.md): N env
 runner processes, on a local Ray or on the cluster at --address; it writes DIR/checkpoint/
@@ -38,6 +46,7 @@ import pathlib
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
+from agents.learning.finetune import FinetuneConfig, FinetuneResult, finetune_policy
 from agents.learning.imitation import ImitationConfig, ImitationResult, train_imitation
 from agents.learning.rllib.backend import RLlibOptions, RLlibResult, train_rllib
 from agents.learning.training import ALGOS, CURRICULUM, TrainConfig, TrainResult, train_ppo
@@ -53,6 +62,55 @@ def teacher_of(argv: list[str] | None = None) -> str | None:
     args, _ = parser.parse_known_args(argv)
     teacher: str | None = args.teacher
     return teacher
+
+
+def finetune_of(argv: list[str] | None = None) -> tuple[pathlib.Path | None, int]:
+    """The ``--finetune`` policy (``None``: none) and ``--finetune-steps`` of ``argv``."""
+    parser = argparse.ArgumentParser(add_help=False)
+    parser.add_argument("--finetune", type=pathlib.Path, default=None)
+    parser.add_argument("--finetune-steps", type=int, default=None)
+    args, _ = parser.parse_known_args(argv)
+    policy: pathlib.Path | None = args.finetune
+    steps: int | None = args.finetune_steps
+    if steps is None:
+        defaults = FinetuneConfig(out_dir=pathlib.Path("."), policy=pathlib.Path("."))
+        steps = defaults.timesteps if policy is not None else 0
+    return policy, steps
+
+
+def finetune_config(argv: list[str] | None = None) -> FinetuneConfig:
+    """The :class:`FinetuneConfig` of a ``--finetune POLICY`` command line ``argv``."""
+    import shlex
+    import sys
+
+    defaults = FinetuneConfig(out_dir=pathlib.Path("."), policy=pathlib.Path("."))
+    parser = argparse.ArgumentParser(description="PPO fine-tuning of an imitation policy")
+    parser.add_argument("--finetune", type=pathlib.Path, required=True, help="the policy.pt")
+    parser.add_argument("--out", type=pathlib.Path, required=True, help="output folder")
+    parser.add_argument("--seed", type=int, default=0, help="seed")
+    parser.add_argument("--n-envs", type=int, default=defaults.n_envs, help="env processes")
+    parser.add_argument(
+        "--finetune-steps", type=int, default=defaults.timesteps, help="PPO env steps"
+    )
+    parser.add_argument(
+        "--torch-threads", type=int, default=defaults.torch_threads, help="torch threads"
+    )
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    args = parser.parse_args(argv)
+    words = sys.argv[1:] if argv is None else argv
+    try:
+        return FinetuneConfig(
+            out_dir=args.out,
+            policy=args.finetune,
+            seed=args.seed,
+            n_envs=args.n_envs,
+            timesteps=args.finetune_steps,
+            torch_threads=args.torch_threads,
+            command="python scripts/train.py " + shlex.join(words),
+            progress=not args.no_progress,
+        )
+    except ValueError as err:
+        parser.error(str(err))
 
 
 def imitation_config(argv: list[str] | None = None) -> ImitationConfig:
@@ -101,8 +159,16 @@ def imitation_config(argv: list[str] | None = None) -> ImitationConfig:
         default=defaults.torch_threads,
         help="torch threads of the fits (1 when other jobs share the cores)",
     )
+    parser.add_argument(
+        "--finetune-steps",
+        type=int,
+        default=0,
+        help="then fine-tune the policy with PPO for this many env steps (0: no)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
+    if args.finetune_steps < 0:
+        parser.error(f"--finetune-steps must be >= 0, got {args.finetune_steps}")
     words = sys.argv[1:] if argv is None else argv
     try:
         return ImitationConfig(
@@ -215,14 +281,42 @@ def train_config(argv: list[str] | None = None) -> TrainConfig:
     )
 
 
-def main(argv: list[str] | None = None) -> TrainResult | RLlibResult | ImitationResult:
+def _finetune(cfg: FinetuneConfig) -> FinetuneResult:
+    result = finetune_policy(cfg)
+    print(
+        f"fine-tuned policy: {result.policy_path} ({result.steps} env steps, "
+        f"{result.episodes} episodes, {result.minutes:.1f} min)"
+    )
+    print(f"evaluate it: python scripts/evaluate.py --agent learned:{result.policy_path}")
+    return result
+
+
+def main(
+    argv: list[str] | None = None,
+) -> TrainResult | RLlibResult | ImitationResult | FinetuneResult:
     """Parse the arguments and train; returns what was written."""
+    policy, finetune_steps = finetune_of(argv)
+    if policy is not None:
+        return _finetune(finetune_config(argv))
     if teacher_of(argv) is not None:
         icfg = imitation_config(argv)
         result = train_imitation(icfg)
         print(f"policy: {result.policy_path} ({result.steps} env steps, {result.minutes:.1f} min)")
-        print(f"evaluate it: python scripts/evaluate.py --agent learned:{result.policy_path}")
-        return result
+        if finetune_steps == 0:
+            print(f"evaluate it: python scripts/evaluate.py --agent learned:{result.policy_path}")
+            return result
+        return _finetune(
+            FinetuneConfig(
+                out_dir=icfg.out_dir,
+                policy=icfg.out_dir / "checkpoints" / f"phase{icfg.rounds}.pt",
+                seed=icfg.seed,
+                n_envs=icfg.n_envs,
+                timesteps=finetune_steps,
+                torch_threads=icfg.torch_threads,
+                command=icfg.command,
+                progress=icfg.progress,
+            )
+        )
     cfg = train_config(argv)
     backend, options = backend_options(argv)
     if backend == "rllib":

@@ -2,7 +2,8 @@
 
 Owns the imitation of the planner: the learned agents' observation (:mod:`.egomap`), the
 training envs' wrappers with the teacher's labels (:mod:`.wrappers`), behaviour cloning and DAgger
-(:mod:`.imitation`) and the agent of its policies (:mod:`.learned`); the SB3 training loop with its
+(:mod:`.imitation`), PPO fine-tuning of their policies (:mod:`.finetune`) and the agent of its
+policies (:mod:`.learned`); the SB3 training loop with its
 curriculum (:mod:`.training`), the agent of a saved SB3 model (:mod:`.ppo`), results over training
 seeds (:mod:`.seeds`) and the RLlib backend, agent and connectors (:mod:`.rllib`). torch is
 imported here and nowhere else.

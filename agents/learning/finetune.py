@@ -1,0 +1,409 @@
+"""PPO fine-tuning of an imitation policy under the suite's rules (``train.py --finetune``).
+
+The student of :mod:`agents.learning.imitation` predicts each command (forward, turn, pan) as a
+distribution over ``bins`` values in [-1, 1]; that is a policy over the ``MultiDiscrete([bins] *
+3)`` actions of :class:`BinActions`, so stable-baselines3's PPO can go on training it with the
+env's own reward (:mod:`stereo_nav_env.rewards`: geodesic progress, goal, contact and time
+terms) in the imitation's training envs (:func:`agents.learning.wrappers.make_training_env`, the
+same families, perception and episode rules, no teacher).
+
+:func:`finetune_policy`:
+
+1. builds a PPO actor-critic (:class:`EgoFeatures`: the imitation network's encoder and feature
+   MLP; its two hidden layers; its output layer as the action net) and copies the imitation
+   weights into it, so that before any update PPO's action distribution *is* the imitation
+   policy's (``tests/agents/learning/test_finetune.py`` checks the logits); the critic gets its
+   own copy of the encoder and hidden layers and a fresh value output;
+2. trains the critic alone for ``critic_warmup_rollouts`` rollouts (the actor's parameters
+   frozen), so that the first policy updates use advantages of a critic that knows the returns,
+   not of a random one that would pull the actor away from what it imitated;
+3. runs PPO with a small step and clip range, and stops early within an update once the
+   approximate KL to the rollout's policy passes ``target_kl``;
+4. copies the actor back into the imitation network and saves it as a
+   :class:`~agents.learning.imitation.PolicyBundle` (``policy.pt``: the same file format, so
+   ``evaluate.py --agent learned:PATH`` and ``make_agent("learned:PATH")`` use it as they are),
+   its metadata the imitation's plus ``finetune`` (this config and the run's figures).
+
+Outputs in ``out_dir``: ``policy.pt``, ``finetune_curve.csv`` (per finished training episode:
+env steps since the fine-tuning started, return, length, success, whether the actor was
+training) and ``finetune.json`` (config, steps, minutes, episodes).
+
+torch and stable-baselines3 are imported inside the functions that need them.
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import json
+import math
+import pathlib
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "BinActions",
+    "FinetuneConfig",
+    "FinetuneResult",
+    "finetune_policy",
+]
+
+RESET_SEED_OFFSET = 500
+"""Env ``i`` of a fine-tuning with seed ``s`` first resets with ``s * 1000 + 500 + i``: apart
+from the imitation's ``s * 1000 + i`` (and every suite seed, which runs in the hundred
+thousands)."""
+
+
+class BinActions(gym.ActionWrapper[Any, Any, Any]):
+    """The env with ``MultiDiscrete([bins] * 3)`` actions: bin ``k`` of a command is the value
+    ``-1 + 2 k / (bins - 1)``, the values the imitation's bins stand for.
+
+    Raises:
+        ValueError: When ``bins`` < 2.
+    """
+
+    def __init__(self, env: gym.Env[Any, Any], bins: int) -> None:
+        super().__init__(env)
+        if isinstance(bins, bool) or not isinstance(bins, int) or bins < 2:
+            raise ValueError(f"bins must be an integer >= 2, got {bins!r}")
+        self.values = np.linspace(-1.0, 1.0, bins).astype(np.float32)
+        self.action_space = gym.spaces.MultiDiscrete([bins] * 3)
+
+    def action(self, action: Any) -> NDArray[np.float32]:
+        index = np.asarray(action, dtype=np.int64).reshape(3)
+        return self.values[index]
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class FinetuneConfig:
+    """What :func:`finetune_policy` does.
+
+    Attributes:
+        out_dir: Output folder.
+        policy: The imitation's ``policy.pt`` to start from (its metadata names the training
+            envs: perception, families and their shares, episode rules).
+        seed: Seed of PPO and of the envs (env ``i`` first resets with ``seed * 1000 + 500 +
+            i``).
+        timesteps: Env steps of fine-tuning (the run also stops after ``max_minutes``).
+        max_minutes: Wall-time budget, minutes (``None``: none); the rollout under way when it
+            runs out is dropped.
+        n_envs: Env subprocesses.
+        n_steps: Steps per env per rollout.
+        batch_size: PPO minibatch size.
+        n_epochs: Passes over each rollout.
+        learning_rate: Adam step size (small: the policy starts good).
+        clip_range: PPO's ratio clip.
+        target_kl: An update stops once the approximate KL to the rollout's policy passes
+            1.5 x this (``None``: never).
+        ent_coef: Entropy bonus.
+        gamma: Discount.
+        gae_lambda: GAE's lambda.
+        critic_warmup_rollouts: Rollouts at the start in which only the critic trains.
+        normalize_reward: Scale rewards by a running estimate of the return's spread
+            (``VecNormalize``, rewards only).
+        torch_threads: torch's threads.
+        command: The command line that ran (recorded in the policy).
+        progress: Show a progress bar.
+    """
+
+    out_dir: pathlib.Path
+    policy: pathlib.Path
+    seed: int = 0
+    timesteps: int = 120_000
+    max_minutes: float | None = None
+    n_envs: int = 2
+    n_steps: int = 1024
+    batch_size: int = 256
+    n_epochs: int = 4
+    learning_rate: float = 1e-4
+    clip_range: float = 0.1
+    target_kl: float | None = 0.03
+    ent_coef: float = 0.0
+    gamma: float = 0.99
+    gae_lambda: float = 0.95
+    critic_warmup_rollouts: int = 3
+    normalize_reward: bool = True
+    torch_threads: int = 2
+    command: str = ""
+    progress: bool = True
+
+    def __post_init__(self) -> None:
+        for name in ("timesteps", "n_envs", "n_steps", "batch_size", "n_epochs", "torch_threads"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        if (
+            isinstance(self.critic_warmup_rollouts, bool)
+            or not isinstance(self.critic_warmup_rollouts, int)
+            or self.critic_warmup_rollouts < 0
+        ):
+            raise ValueError(
+                "critic_warmup_rollouts must be a non-negative integer, "
+                f"got {self.critic_warmup_rollouts!r}"
+            )
+        positive = {"learning_rate": self.learning_rate, "clip_range": self.clip_range}
+        if self.max_minutes is not None:
+            positive["max_minutes"] = self.max_minutes
+        if self.target_kl is not None:
+            positive["target_kl"] = self.target_kl
+        for name, value in positive.items():
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number, got {value!r}")
+        for name in ("gamma", "gae_lambda"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and 0.0 < value <= 1.0):
+                raise ValueError(f"{name} must be in (0, 1], got {value!r}")
+        if not (isinstance(self.ent_coef, int | float) and self.ent_coef >= 0.0):
+            raise ValueError(f"ent_coef must be a non-negative number, got {self.ent_coef!r}")
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-friendly dict of the fields."""
+        return {
+            name: str(getattr(self, name))
+            if isinstance(getattr(self, name), pathlib.Path)
+            else getattr(self, name)
+            for name in self.__dataclass_fields__
+        }
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class FinetuneResult:
+    """What :func:`finetune_policy` wrote.
+
+    Attributes:
+        policy_path: The fine-tuned policy (``policy.pt``).
+        steps: Env steps of fine-tuning.
+        episodes: Training episodes finished.
+        minutes: Wall time, minutes.
+    """
+
+    policy_path: pathlib.Path
+    steps: int
+    episodes: int
+    minutes: float
+
+
+def _env_maker(meta: dict[str, Any], egomap: Any, bins: int, seed: int) -> Any:
+    """A function that builds one fine-tuning env (in the subprocess that calls it)."""
+
+    def make() -> Any:
+        from stable_baselines3.common.monitor import Monitor
+
+        from agents.learning.wrappers import make_training_env
+
+        config = meta["config"]
+        env = make_training_env(
+            dict(config["env_kwargs"]),
+            families=config["families"],
+            weights=config["weights"],
+            teacher=None,
+            egomap=egomap,
+        )
+        env = Monitor(BinActions(env, bins), info_keywords=("is_success",))
+        env.reset(seed=seed)
+        return env
+
+    return make
+
+
+def _features_class(net: Any) -> Any:
+    """The features extractor class whose modules are copies of ``net``'s encoder and feature
+    MLP (stable-baselines3 builds the actor's and the critic's from it)."""
+    import torch
+    from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+
+    class EgoFeatures(BaseFeaturesExtractor):
+        """The imitation network's map encoder and feature MLP, their outputs concatenated."""
+
+        def __init__(self, observation_space: gym.spaces.Dict) -> None:
+            super().__init__(observation_space, net.head[0].in_features)
+            self.encoder = copy.deepcopy(net.encoder)
+            self.state = copy.deepcopy(net.state)
+
+        def forward(self, obs: dict[str, torch.Tensor]) -> torch.Tensor:
+            image = self.encoder(obs["map"].float() / 255.0)
+            return torch.cat([image, self.state(obs["state"])], dim=1)
+
+    return EgoFeatures
+
+
+def actor_critic(bundle: Any, env: Any, cfg: FinetuneConfig) -> Any:
+    """The PPO model on ``env`` whose actor is ``bundle``'s network (weights copied in) and
+    whose critic starts from the same encoder and hidden layers with a fresh output."""
+    import torch
+    from stable_baselines3 import PPO
+    from torch import nn
+
+    net = bundle.net
+    width = net.head[0].out_features
+    model = PPO(
+        "MultiInputPolicy",
+        env,
+        n_steps=cfg.n_steps,
+        batch_size=cfg.batch_size,
+        n_epochs=cfg.n_epochs,
+        learning_rate=cfg.learning_rate,
+        gamma=cfg.gamma,
+        gae_lambda=cfg.gae_lambda,
+        clip_range=cfg.clip_range,
+        ent_coef=cfg.ent_coef,
+        target_kl=cfg.target_kl,
+        seed=cfg.seed,
+        device="cpu",
+        verbose=0,
+        policy_kwargs={
+            "features_extractor_class": _features_class(net),
+            "share_features_extractor": False,
+            "net_arch": {"pi": [width, width], "vf": [width, width]},
+            "activation_fn": nn.ReLU,
+            "normalize_images": False,
+        },
+    )
+    policy: Any = model.policy
+    # PPO's orthogonal initialisation ran over every module: copy the imitation's weights now.
+    with torch.no_grad():
+        for features in (policy.pi_features_extractor, policy.vf_features_extractor):
+            features.encoder.load_state_dict(net.encoder.state_dict())
+            features.state.load_state_dict(net.state.state_dict())
+        for hidden in (policy.mlp_extractor.policy_net, policy.mlp_extractor.value_net):
+            hidden[0].load_state_dict(net.head[0].state_dict())
+            hidden[2].load_state_dict(net.head[2].state_dict())
+        policy.action_net.load_state_dict(net.head[4].state_dict())
+    return model
+
+
+def _actor_parameters(policy: Any) -> list[Any]:
+    return [
+        *policy.pi_features_extractor.parameters(),
+        *policy.mlp_extractor.policy_net.parameters(),
+        *policy.action_net.parameters(),
+    ]
+
+
+def copy_actor_back(policy: Any, net: Any) -> None:
+    """Copy the PPO actor's weights into the imitation network ``net`` (the inverse of the copy
+    in :func:`actor_critic`)."""
+    import torch
+
+    with torch.no_grad():
+        net.encoder.load_state_dict(policy.pi_features_extractor.encoder.state_dict())
+        net.state.load_state_dict(policy.pi_features_extractor.state.state_dict())
+        net.head[0].load_state_dict(policy.mlp_extractor.policy_net[0].state_dict())
+        net.head[2].load_state_dict(policy.mlp_extractor.policy_net[2].state_dict())
+        net.head[4].load_state_dict(policy.action_net.state_dict())
+
+
+def _callback(cfg: FinetuneConfig, rows: list[dict[str, float]], started: float) -> Any:
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class FinetuneCallback(BaseCallback):
+        """Freezes the actor for the critic's warm-up, records every finished episode, shows
+        progress and stops at the wall-time budget."""
+
+        def _on_training_start(self) -> None:
+            self._rollouts = 0
+            self._actor = _actor_parameters(self.model.policy)
+            self._train_actor(cfg.critic_warmup_rollouts == 0)
+            self._bar: Any = None
+            if cfg.progress:
+                from tqdm.auto import tqdm
+
+                self._bar = tqdm(total=cfg.timesteps, unit="step", desc="PPO fine-tuning")
+
+        def _train_actor(self, on: bool) -> None:
+            for parameter in self._actor:
+                parameter.requires_grad_(on)
+
+        def _on_rollout_start(self) -> None:
+            if self._rollouts == cfg.critic_warmup_rollouts:
+                self._train_actor(True)
+            self._rollouts += 1
+
+        def _on_step(self) -> bool:
+            for info in self.locals.get("infos", ()):
+                episode = info.get("episode")
+                if episode is not None:
+                    rows.append(
+                        {
+                            "timesteps": float(self.num_timesteps),
+                            "return": float(episode["r"]),
+                            "length": float(episode["l"]),
+                            "success": float(bool(info.get("is_success", False))),
+                            "actor_training": float(self._rollouts > cfg.critic_warmup_rollouts),
+                        }
+                    )
+            if self._bar is not None:
+                self._bar.update(max(0, self.num_timesteps - self._bar.n))
+            if cfg.max_minutes is None:
+                return True
+            return time.monotonic() - started < 60.0 * cfg.max_minutes
+
+        def _on_training_end(self) -> None:
+            if self._bar is not None:
+                self._bar.close()
+            self._train_actor(True)
+
+    return FinetuneCallback()
+
+
+def finetune_policy(cfg: FinetuneConfig) -> FinetuneResult:
+    """Fine-tune ``cfg.policy`` with PPO (module docstring); write ``cfg.out_dir``'s files.
+
+    Raises:
+        FileNotFoundError: When there is no policy at ``cfg.policy``.
+        ValueError: When it was trained on another observation version.
+    """
+    import torch
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
+
+    from agents.learning.imitation import load_policy
+
+    started = time.monotonic()
+    torch.set_num_threads(cfg.torch_threads)
+    bundle = load_policy(cfg.policy)
+    makers = [
+        _env_maker(bundle.meta, bundle.egomap, bundle.bins, cfg.seed * 1000 + RESET_SEED_OFFSET + i)
+        for i in range(cfg.n_envs)
+    ]
+    venv: Any = (
+        DummyVecEnv(makers) if cfg.n_envs == 1 else SubprocVecEnv(makers, start_method="forkserver")
+    )
+    if cfg.normalize_reward:
+        venv = VecNormalize(venv, norm_obs=False, norm_reward=True, gamma=cfg.gamma)
+    rows: list[dict[str, float]] = []
+    try:
+        model = actor_critic(bundle, venv, cfg)
+        model.learn(total_timesteps=cfg.timesteps, callback=_callback(cfg, rows, started))
+        steps = int(model.num_timesteps)
+    finally:
+        venv.close()
+    copy_actor_back(model.policy, bundle.net)
+    bundle.net.eval()
+    minutes = (time.monotonic() - started) / 60.0
+    summary = {
+        "config": cfg.to_dict(),
+        "command": cfg.command,
+        "steps": steps,
+        "episodes": len(rows),
+        "minutes": minutes,
+        "success_rate_last_100": float(np.mean([r["success"] for r in rows[-100:]]))
+        if rows
+        else math.nan,
+    }
+    bundle.meta["finetune"] = summary
+    out = pathlib.Path(cfg.out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / "policy.pt"
+    bundle.save(path)
+    (out / "finetune.json").write_text(json.dumps(summary, indent=2) + "\n")
+    with (out / "finetune_curve.csv").open("w", newline="") as fh:
+        fields = ["timesteps", "return", "length", "success", "actor_training"]
+        writer = csv.DictWriter(fh, fieldnames=fields)
+        writer.writeheader()
+        writer.writerows(rows)
+    return FinetuneResult(policy_path=path, steps=steps, episodes=len(rows), minutes=minutes)

@@ -1,0 +1,209 @@
+"""PPO fine-tuning of an imitation policy: the action bins, the weight copies, a smoke run."""
+
+from __future__ import annotations
+
+import pathlib
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+
+import stereo_nav_env  # noqa: F401  (registers the ids)
+from agents import make_agent
+from agents.learning.egomap import CHANNELS, STATE_FEATURES, EgoMapConfig
+from agents.learning.finetune import (
+    BinActions,
+    FinetuneConfig,
+    actor_critic,
+    copy_actor_back,
+    finetune_policy,
+)
+from agents.learning.imitation import ImitationConfig, _new_bundle, load_policy, train_imitation
+from agents.learning.wrappers import make_training_env
+from tests.scripts.loader import load_script
+
+SMALL = EgoMapConfig(size_px=16, cell_m=0.5)
+
+
+@pytest.fixture(scope="module")
+def imitation_policy(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
+    """A tiny imitation policy (a few hundred planner steps on a small map)."""
+    out = tmp_path_factory.mktemp("imitation")
+    cfg = ImitationConfig(
+        out_dir=out,
+        n_envs=1,
+        demo_steps=120,
+        rounds=0,
+        epochs=1,
+        width=32,
+        families=("open",),
+        weights=(1.0,),
+        egomap=SMALL,
+        progress=False,
+    )
+    return train_imitation(cfg).policy_path
+
+
+def test_bin_actions_send_the_values_the_bins_stand_for() -> None:
+    env: Any = BinActions(gym.make("StereoNav-v1", scenario="open", perception="surrogate"), 11)
+    assert env.action_space == gym.spaces.MultiDiscrete([11, 11, 11])
+    np.testing.assert_allclose(env.action(np.array([0, 5, 10])), [-1.0, 0.0, 1.0])
+    np.testing.assert_allclose(env.action(np.array([3, 7, 9])), [-0.4, 0.4, 0.8], atol=1e-6)
+    with pytest.raises(ValueError, match="bins"):
+        BinActions(env, 1)
+    env.close()
+
+
+def test_ppo_starts_from_the_imitation_policy_and_gives_its_actor_back() -> None:
+    torch.manual_seed(0)
+    bundle = _new_bundle(SMALL, 11, 32, {})
+    meta = {"config": {"env_kwargs": {"perception": "surrogate"}}}
+    env = make_training_env(
+        dict(meta["config"]["env_kwargs"]), families=("open",), teacher=None, egomap=SMALL
+    )
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    venv = DummyVecEnv([lambda: BinActions(env, 11)])
+    cfg = FinetuneConfig(out_dir=pathlib.Path("."), policy=pathlib.Path("unused.pt"))
+    model = actor_critic(bundle, venv, cfg)
+    rng = np.random.default_rng(0)
+    maps = torch.from_numpy(rng.integers(0, 256, (5, len(CHANNELS), 16, 16), dtype=np.uint8))
+    states = torch.from_numpy(rng.uniform(-1, 1, (5, len(STATE_FEATURES))).astype(np.float32))
+    with torch.no_grad():
+        want = torch.log_softmax(bundle.net(maps, states), dim=-1)
+        dist = model.policy.get_distribution({"map": maps.float(), "state": states})
+        got = torch.stack([d.logits for d in dist.distribution], dim=1)
+    torch.testing.assert_close(got, want, rtol=0, atol=1e-5)
+    # an update moves the actor; copying it back makes the imitation network compute the same
+    with torch.no_grad():
+        for p in model.policy.action_net.parameters():
+            p.add_(0.1)
+        for p in model.policy.pi_features_extractor.parameters():
+            p.mul_(0.9)
+        moved = torch.stack(
+            [
+                d.logits
+                for d in model.policy.get_distribution(
+                    {"map": maps.float(), "state": states}
+                ).distribution
+            ],
+            dim=1,
+        )
+    assert not torch.allclose(moved, want, atol=1e-3)
+    copy_actor_back(model.policy, bundle.net)
+    with torch.no_grad():
+        back = torch.log_softmax(bundle.net(maps, states), dim=-1)
+    torch.testing.assert_close(back, moved, rtol=0, atol=1e-5)
+    venv.close()
+
+
+def test_a_finetuning_smoke_run_writes_a_policy_that_loads_and_acts(
+    imitation_policy: pathlib.Path, tmp_path: pathlib.Path
+) -> None:
+    before = load_policy(imitation_policy)
+    cfg = FinetuneConfig(
+        out_dir=tmp_path,
+        policy=imitation_policy,
+        timesteps=256,
+        n_envs=1,
+        n_steps=64,
+        batch_size=32,
+        n_epochs=1,
+        critic_warmup_rollouts=1,
+        progress=False,
+    )
+    result = finetune_policy(cfg)
+    assert result.steps >= 256 and result.policy_path == tmp_path / "policy.pt"
+    after = load_policy(result.policy_path)
+    assert after.meta["rules"] == before.meta["rules"]
+    assert after.meta["finetune"]["steps"] == result.steps
+    changed = [
+        not torch.equal(a, b)
+        for a, b in zip(
+            before.net.state_dict().values(), after.net.state_dict().values(), strict=True
+        )
+    ]
+    assert any(changed)  # the actor trained after the critic's warm-up rollout
+    lines = (tmp_path / "finetune_curve.csv").read_text().splitlines()
+    assert lines[0] == "timesteps,return,length,success,actor_training"
+    agent = make_agent(f"learned:{result.policy_path}")
+    env = gym.make("StereoNav-v1", scenario="room", perception="surrogate")
+    obs, info = env.reset(seed=3)
+    agent.reset(env, seed=3)
+    for _ in range(3):
+        action = agent.act(obs, info)
+        assert action.shape == (3,) and np.all(np.abs(action) <= 1.0)
+        obs, *_, info = env.step(action)
+    env.close()
+
+
+def test_the_critic_warms_up_alone(imitation_policy: pathlib.Path, tmp_path: pathlib.Path) -> None:
+    cfg = FinetuneConfig(
+        out_dir=tmp_path,
+        policy=imitation_policy,
+        timesteps=128,
+        n_envs=1,
+        n_steps=64,
+        batch_size=32,
+        n_epochs=1,
+        critic_warmup_rollouts=5,  # longer than the run: the actor never trains
+        progress=False,
+    )
+    before = load_policy(imitation_policy).net.state_dict()
+    after = load_policy(finetune_policy(cfg).policy_path).net.state_dict()
+    for name, value in before.items():
+        assert torch.equal(value, after[name]), name
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("timesteps", 0),
+        ("n_steps", -1),
+        ("learning_rate", 0.0),
+        ("clip_range", float("nan")),
+        ("gamma", 1.5),
+        ("critic_warmup_rollouts", -1),
+        ("target_kl", -0.1),
+        ("max_minutes", 0),
+        ("ent_coef", -0.01),
+    ],
+)
+def test_bad_finetuning_configs_are_named(field: str, value: object) -> None:
+    with pytest.raises(ValueError, match=field):
+        FinetuneConfig(
+            out_dir=pathlib.Path("."),
+            policy=pathlib.Path("p.pt"),
+            **{field: value},  # type: ignore[arg-type]
+        )
+
+
+def test_train_py_fine_tunes_after_the_imitation_or_a_policy_already_trained(
+    tmp_path: pathlib.Path,
+) -> None:
+    train = load_script("train")
+    out = str(tmp_path)
+    assert train.finetune_of(["--teacher", "planner", "--out", out]) == (None, 0)
+    assert train.finetune_of(
+        ["--teacher", "planner", "--out", out, "--finetune-steps", "5000"]
+    ) == (None, 5000)
+    policy, steps = train.finetune_of(["--finetune", "run/policy.pt", "--out", out])
+    assert (
+        policy == pathlib.Path("run/policy.pt")
+        and steps == FinetuneConfig(out_dir=tmp_path, policy=policy).timesteps
+    )
+    cfg = train.finetune_config(
+        ["--finetune", "run/policy.pt", "--out", out, "--seed", "3", "--finetune-steps", "900"]
+    )
+    assert (cfg.policy, cfg.out_dir, cfg.seed, cfg.timesteps) == (policy, tmp_path, 3, 900)
+    assert cfg.command.startswith("python scripts/train.py --finetune run/policy.pt")
+    imitation = train.imitation_config(
+        ["--teacher", "planner", "--out", out, "--finetune-steps", "900"]
+    )
+    assert imitation.out_dir == tmp_path  # the imitation's own config is unchanged by it
+    with pytest.raises(SystemExit):
+        train.imitation_config(["--teacher", "planner", "--out", out, "--finetune-steps", "-1"])
+    with pytest.raises(SystemExit):
+        train.finetune_config(["--finetune", "p.pt", "--out", out, "--finetune-steps", "0"])
