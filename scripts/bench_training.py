@@ -14,6 +14,11 @@ defaults, 40 % and four rounds of 15 %, with the same epochs and betas; set-up, 
 saving included: ``loop_steps_per_s``); ``loop_over_raw_env`` is their ratio. Then one epoch of
 the recipe's fit on 4,096 random observations in channels-last layout (as the recipe fits) and in
 NCHW, alternately, twice (``fit_channels_last_over_nchw``: the better of each, their ratio).
+Then the recipe's second stage, PPO fine-tuning of the policy just trained
+(:mod:`agents.learning.finetune`), the same way: its vector env alone (no teacher), stepped with
+uniformly drawn action bins for ``--timesteps`` steps (``finetune_raw_env_steps_per_s``), then
+``finetune_policy`` for the same number of steps, set-up and saving included
+(``finetune_loop_steps_per_s``; ``finetune_loop_over_raw_env``).
 
 ``--learner backends`` compares RLlib PPO on 1 and 2 env runners against stable-baselines3 on 1 and
 2 envs (docs/rllib.md). All four runs happen in this one process, one after the other, on the env
@@ -42,6 +47,7 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 from _figures import print_figures, write_figures
 
 import stereo_nav_env  # noqa: F401  (registers the ids)
+from agents.learning.finetune import FinetuneConfig, finetune_policy, finetune_vector_env
 from agents.learning.imitation import (
     ImitationConfig,
     fit_speed,
@@ -133,6 +139,7 @@ def measure_imitation(args: argparse.Namespace, work: pathlib.Path) -> dict[str,
     loop = result.steps / (result.minutes * 60.0)
     print(f"raw env: {raw:.1f} steps/s; imitation loop: {loop:.1f} steps/s", flush=True)
     return {
+        **measure_finetune(args, work, result.policy_path),
         **fit_speed(cfg),
         "n_envs": float(cfg.n_envs),
         "raw_env_steps": float(taken),
@@ -141,6 +148,47 @@ def measure_imitation(args: argparse.Namespace, work: pathlib.Path) -> dict[str,
         "loop_wall_s": result.minutes * 60.0,
         "loop_steps_per_s": loop,
         "loop_over_raw_env": loop / raw,
+    }
+
+
+def measure_finetune(
+    args: argparse.Namespace, work: pathlib.Path, policy: pathlib.Path
+) -> dict[str, float]:
+    """The fine-tuning's env alone and the fine-tuning of ``policy``, ``args.timesteps`` steps
+    each (module docstring)."""
+    import numpy as np
+
+    from agents.learning.imitation import load_policy
+
+    steps = int(args.timesteps)
+    cfg = FinetuneConfig(
+        out_dir=work / "finetune",
+        policy=policy,
+        timesteps=steps,
+        n_envs=args.n_envs,
+        progress=False,
+    )
+    venv = finetune_vector_env(cfg, load_policy(policy))
+    rng = np.random.default_rng(0)
+    try:
+        venv.reset()
+        t0 = time.perf_counter()
+        taken = 0
+        while taken < steps:
+            venv.step(rng.integers(0, venv.action_space.nvec, size=(cfg.n_envs, 3)))
+            taken += cfg.n_envs
+        raw = taken / (time.perf_counter() - t0)
+    finally:
+        venv.close()
+    result = finetune_policy(cfg)
+    loop = result.steps / (result.minutes * 60.0)
+    print(f"fine-tuning: raw env {raw:.1f} steps/s; loop {loop:.1f} steps/s", flush=True)
+    return {
+        "finetune_raw_env_steps": float(taken),
+        "finetune_raw_env_steps_per_s": raw,
+        "finetune_loop_steps": float(result.steps),
+        "finetune_loop_steps_per_s": loop,
+        "finetune_loop_over_raw_env": loop / raw,
     }
 
 
@@ -155,6 +203,13 @@ def markdown_imitation(figures: dict[str, float]) -> str:
             f"| the imitation loop (collect + fit) | {figures['n_envs']:.0f} "
             f"| {figures['loop_steps']:.0f} | {figures['loop_steps_per_s']:.1f} |",
             f"| ratio | | | {figures['loop_over_raw_env']:.2f} |",
+            f"| the fine-tuning's env alone (random bins) | {figures['n_envs']:.0f} "
+            f"| {figures['finetune_raw_env_steps']:.0f} "
+            f"| {figures['finetune_raw_env_steps_per_s']:.1f} |",
+            f"| the PPO fine-tuning loop | {figures['n_envs']:.0f} "
+            f"| {figures['finetune_loop_steps']:.0f} "
+            f"| {figures['finetune_loop_steps_per_s']:.1f} |",
+            f"| ratio | | | {figures['finetune_loop_over_raw_env']:.2f} |",
             "",
             "| the recipe's fit, one epoch of 4,096 samples | samples/s |",
             "| --- | ---: |",

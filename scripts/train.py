@@ -21,9 +21,9 @@ rebuilt along the student's trajectory, labels every state. It writes DIR/policy
 as learned:DIR/policy.pt), DIR/record.json and DIR/curve.csv. Its defaults are
 :class:`agents.learning.imitation.ImitationConfig`'s; ``--teacher-setting replan_every=1``
 sets a field of the teacher's :class:`agents.planning.config.NavigatorConfig` (repeat).
-With ``--finetune-steps N`` (N > 0) the imitation's policy is then fine-tuned with PPO for N env
-steps under the same rules (:mod:`agents.learning.finetune`): DIR/policy.pt becomes the
-fine-tuned policy (the imitation's stays in DIR/checkpoints/), beside DIR/finetune.json and
+The imitation's policy is then fine-tuned with PPO for ``--finetune-steps`` env steps (120,000;
+0: imitation only) under the same rules (:mod:`agents.learning.finetune`): DIR/policy.pt becomes
+the fine-tuned policy (the imitation's stays in DIR/checkpoints/), beside DIR/finetune.json and
 DIR/finetune_curve.csv. ``--finetune POLICY`` fine-tunes a policy.pt already trained.
 
 --backend rllib trains with Ray RLlib instead (agents.learning.rllib.backend, docs/rllib.md): N env
@@ -46,7 +46,12 @@ import pathlib
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
-from agents.learning.finetune import FinetuneConfig, FinetuneResult, finetune_policy
+from agents.learning.finetune import (
+    FinetuneConfig,
+    FinetuneResult,
+    append_to_curve,
+    finetune_policy,
+)
 from agents.learning.imitation import ImitationConfig, ImitationResult, train_imitation
 from agents.learning.rllib.backend import RLlibOptions, RLlibResult, train_rllib
 from agents.learning.training import ALGOS, CURRICULUM, TrainConfig, TrainResult, train_ppo
@@ -73,8 +78,7 @@ def finetune_of(argv: list[str] | None = None) -> tuple[pathlib.Path | None, int
     policy: pathlib.Path | None = args.finetune
     steps: int | None = args.finetune_steps
     if steps is None:
-        defaults = FinetuneConfig(out_dir=pathlib.Path("."), policy=pathlib.Path("."))
-        steps = defaults.timesteps if policy is not None else 0
+        steps = FinetuneConfig(out_dir=pathlib.Path("."), policy=pathlib.Path(".")).timesteps
     return policy, steps
 
 
@@ -162,8 +166,8 @@ def imitation_config(argv: list[str] | None = None) -> ImitationConfig:
     parser.add_argument(
         "--finetune-steps",
         type=int,
-        default=0,
-        help="then fine-tune the policy with PPO for this many env steps (0: no)",
+        default=FinetuneConfig(out_dir=pathlib.Path("."), policy=pathlib.Path(".")).timesteps,
+        help="then fine-tune the policy with PPO for this many env steps (0: imitation only)",
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
@@ -305,10 +309,10 @@ def main(
         if finetune_steps == 0:
             print(f"evaluate it: python scripts/evaluate.py --agent learned:{result.policy_path}")
             return result
-        return _finetune(
+        tuned = _finetune(
             FinetuneConfig(
                 out_dir=icfg.out_dir,
-                policy=icfg.out_dir / "checkpoints" / f"phase{icfg.rounds}.pt",
+                policy=result.policy_path,  # overwritten by the fine-tuned one
                 seed=icfg.seed,
                 n_envs=icfg.n_envs,
                 timesteps=finetune_steps,
@@ -317,6 +321,8 @@ def main(
                 progress=icfg.progress,
             )
         )
+        append_to_curve(icfg.out_dir / "curve.csv", icfg.out_dir / "finetune_curve.csv")
+        return tuned
     cfg = train_config(argv)
     backend, options = backend_options(argv)
     if backend == "rllib":

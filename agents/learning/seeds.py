@@ -99,16 +99,22 @@ def _rolling_success(curve_csv: pathlib.Path, window: int) -> tuple[np.ndarray, 
 
 def _phase_starts(curve_csv: pathlib.Path) -> list[tuple[float, str]]:
     """Where each phase of an imitation run's ``curve.csv`` begins (0, then the last episode
-    before it ends, env steps) and its label (``beta``, the teacher's share of the steps); empty
-    for a run without phases (PPO)."""
+    before it ends, env steps) and its label (``beta``, the teacher's share of the steps, or
+    PPO for the recipe's fine-tuning); empty for a run without phases (PPO alone)."""
     with curve_csv.open() as fh:
         rows = list(csv.DictReader(fh))
     if not rows or "phase" not in rows[0]:
         return []
-    starts = [(0.0, f" teacher {float(rows[0]['beta']):.0%}")]
+
+    def label(row: dict[str, str]) -> str:
+        if row["phase"] == "ppo fine-tuning":  # agents.learning.finetune.PHASE
+            return " PPO"
+        return f" teacher {float(row['beta']):.0%}"
+
+    starts = [(0.0, label(rows[0]))]
     for before, row in itertools.pairwise(rows):
         if row["phase"] != before["phase"]:
-            starts.append((float(before["timesteps"]), f" teacher {float(row['beta']):.0%}"))
+            starts.append((float(before["timesteps"]), label(row)))
     return starts
 
 
@@ -150,9 +156,10 @@ def plot_seed_curves(
             name = label if label.startswith("seed") else f"seed {label}"
             ax.plot(t, s, lw=0.6, alpha=0.7, label=name)
         phases = _phase_starts(pathlib.Path(next(iter(curve_csvs.values()))))
-        for at, text in phases:
+        for k, (at, text) in enumerate(phases):  # labels on three staggered rows
             ax.axvline(at, color="grey", lw=0.6, ls=":")
-            ax.text(at, 0.02, text, fontsize=7, color="dimgrey", ha="left", va="bottom")
+            y = 0.02 + 0.07 * (k % 3)
+            ax.text(at, y, text, fontsize=7, color="dimgrey", ha="left", va="bottom")
     ax.set_xlabel("env steps")
     ax.set_ylabel(f"success, last {window} episodes")
     ax.set_ylim(-0.05, 1.05)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import pathlib
 from typing import Any
 
@@ -14,13 +15,16 @@ import stereo_nav_env  # noqa: F401  (registers the ids)
 from agents import make_agent
 from agents.learning.egomap import CHANNELS, STATE_FEATURES, EgoMapConfig
 from agents.learning.finetune import (
+    PHASE,
     BinActions,
     FinetuneConfig,
     actor_critic,
+    append_to_curve,
     copy_actor_back,
     finetune_policy,
 )
 from agents.learning.imitation import ImitationConfig, _new_bundle, load_policy, train_imitation
+from agents.learning.seeds import _phase_starts
 from agents.learning.wrappers import make_training_env
 from tests.scripts.loader import load_script
 
@@ -185,10 +189,12 @@ def test_train_py_fine_tunes_after_the_imitation_or_a_policy_already_trained(
 ) -> None:
     train = load_script("train")
     out = str(tmp_path)
-    assert train.finetune_of(["--teacher", "planner", "--out", out]) == (None, 0)
-    assert train.finetune_of(
-        ["--teacher", "planner", "--out", out, "--finetune-steps", "5000"]
-    ) == (None, 5000)
+    recipe = FinetuneConfig(out_dir=tmp_path, policy=tmp_path).timesteps
+    assert train.finetune_of(["--teacher", "planner", "--out", out]) == (None, recipe)
+    assert train.finetune_of(["--teacher", "planner", "--out", out, "--finetune-steps", "0"]) == (
+        None,
+        0,
+    )
     policy, steps = train.finetune_of(["--finetune", "run/policy.pt", "--out", out])
     assert (
         policy == pathlib.Path("run/policy.pt")
@@ -207,3 +213,54 @@ def test_train_py_fine_tunes_after_the_imitation_or_a_policy_already_trained(
         train.imitation_config(["--teacher", "planner", "--out", out, "--finetune-steps", "-1"])
     with pytest.raises(SystemExit):
         train.finetune_config(["--finetune", "p.pt", "--out", out, "--finetune-steps", "0"])
+
+
+def test_the_finetuning_continues_the_imitations_learning_curve(tmp_path: pathlib.Path) -> None:
+    curve = tmp_path / "curve.csv"
+    curve.write_text(
+        "timesteps,length,success,phase,beta\n"
+        "120.0,120.0,1.0,demonstrations,1.0\n"
+        "300.0,90.0,0.0,dagger 1,0.5\n"
+    )
+    tuned = tmp_path / "finetune_curve.csv"
+    tuned.write_text(
+        "timesteps,return,length,success,actor_training\n"
+        "80.0,3.5,80.0,1.0,0.0\n"
+        "250.0,-2.0,170.0,0.0,1.0\n"
+    )
+    append_to_curve(curve, tuned)
+    with curve.open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert [(float(r["timesteps"]), r["phase"], float(r["beta"])) for r in rows] == [
+        (120.0, "demonstrations", 1.0),
+        (300.0, "dagger 1", 0.5),
+        (380.0, PHASE, 0.0),
+        (550.0, PHASE, 0.0),
+    ]
+    assert [float(r["success"]) for r in rows] == [1.0, 0.0, 1.0, 0.0]
+    assert _phase_starts(curve) == [
+        (0.0, " teacher 100%"),
+        (120.0, " teacher 50%"),
+        (300.0, " PPO"),
+    ]
+
+
+def test_the_recipe_imitates_then_fine_tunes_into_one_run_folder(tmp_path: pathlib.Path) -> None:
+    out = tmp_path / "run"
+    result = load_script("train").main(
+        ["--teacher", "planner", "--out", str(out), "--n-envs", "1", "--demo-steps", "120",
+         "--rounds", "1", "--round-steps", "60", "--epochs", "1", "--finetune-steps", "64",
+         "--no-progress"]
+    )  # fmt: skip
+    assert result.policy_path == out / "policy.pt" and result.steps >= 64
+    policy = load_policy(out / "policy.pt")
+    assert policy.meta["config"]["mirror_share"] == 0.5  # the recipe's
+    assert policy.meta["finetune"]["steps"] == result.steps
+    assert policy.meta["finetune"]["command"].startswith("python scripts/train.py --teacher")
+    assert (out / "checkpoints" / "phase1.pt").is_file()  # the imitation's own policy
+    with (out / "curve.csv").open() as fh:
+        phases = [row["phase"] for row in csv.DictReader(fh)]
+    tuned = (out / "finetune_curve.csv").read_text().splitlines()[1:]
+    # every fine-tuning episode continues the curve, after the imitation's episodes
+    assert len(tuned) >= 1 and phases[len(phases) - len(tuned) :] == [PHASE] * len(tuned)
+    assert PHASE not in phases[: len(phases) - len(tuned)]

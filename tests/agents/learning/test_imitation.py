@@ -146,9 +146,9 @@ def test_the_teacher_settings_reach_the_teacher_of_every_training_env(
         load_script("train").imitation_config(
             ["--teacher", "planner", "--out", str(tmp_path), "--teacher-setting", "nope=1"]
         )
-    mirror = load_script("train").imitation_config([*words[:4], "--mirror-share", "0.5"])
-    assert mirror.mirror_share == 0.5 and mirror.to_dict()["mirror_share"] == 0.5
-    assert cfg.mirror_share == 0.0  # the recipe's
+    mirror = load_script("train").imitation_config([*words[:4], "--mirror-share", "0"])
+    assert mirror.mirror_share == 0.0 and mirror.to_dict()["mirror_share"] == 0.0
+    assert cfg.mirror_share == 0.5  # the recipe's
     with pytest.raises(SystemExit):
         load_script("train").imitation_config([*words[:4], "--mirror-share", "2"])
 
