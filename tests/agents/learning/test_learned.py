@@ -13,6 +13,7 @@ import stereo_nav_env  # noqa: F401  (registers the ids)
 from agents import make_agent
 from agents.evaluation.suite import SuiteConfig, suite_rules
 from agents.learning.egomap import OBSERVATION_VERSION
+from agents.learning.finetune import FinetuneConfig
 from agents.learning.imitation import ImitationConfig
 from agents.learning.learned import SHIPPED_POLICY, LearnedAgent
 
@@ -31,8 +32,22 @@ def test_the_shipped_policy_is_small_and_says_how_it_was_made() -> None:
         *(f"dagger {k}" for k in range(1, rounds + 1)),
     ]
     recipe = ImitationConfig(out_dir=pathlib.Path("x")).to_dict()
-    for key in ("demo_steps", "round_steps", "betas", "epochs", "bins", "width", "families"):
+    for key in (
+        "demo_steps",
+        "round_steps",
+        "betas",
+        "epochs",
+        "bins",
+        "width",
+        "families",
+        "mirror_share",
+    ):
         assert meta["config"][key] == recipe[key], key
+    # then the recipe's PPO fine-tuning, with its settings
+    finetune = FinetuneConfig(out_dir=pathlib.Path("x"), policy=pathlib.Path("x")).to_dict()
+    assert meta["finetune"]["steps"] >= finetune["timesteps"]
+    for key in ("learning_rate", "clip_range", "target_kl", "n_steps", "critic_warmup_rollouts"):
+        assert meta["finetune"]["config"][key] == finetune[key], key
 
 
 def test_make_agent_learned_acts_on_a_fresh_env_deterministically() -> None:
