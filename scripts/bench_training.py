@@ -41,6 +41,8 @@ import os
 import pathlib
 import tempfile
 import time
+from collections.abc import Callable
+from typing import Any
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
@@ -107,6 +109,17 @@ def measure(args: argparse.Namespace, work: pathlib.Path) -> dict[str, float]:
     return figures
 
 
+def _steps_per_s(step: Callable[[], Any], steps: int, n_envs: int) -> tuple[int, float]:
+    """Call ``step`` (one step of ``n_envs`` envs) until ``steps`` env steps are taken; the
+    steps taken and their rate."""
+    t0 = time.perf_counter()
+    taken = 0
+    while taken < steps:
+        step()
+        taken += n_envs
+    return taken, taken / (time.perf_counter() - t0)
+
+
 def measure_imitation(args: argparse.Namespace, work: pathlib.Path) -> dict[str, float]:
     """The raw env and the imitation loop on ``args.timesteps`` steps each (module docstring)."""
     import numpy as np
@@ -124,15 +137,15 @@ def measure_imitation(args: argparse.Namespace, work: pathlib.Path) -> dict[str,
         progress=False,
     )
     venv = training_vector_env(cfg)
+    state: dict[str, Any] = {}
     try:
-        _, info = venv.reset(seed=list(range(cfg.n_envs)))
-        t0 = time.perf_counter()
-        taken = 0
-        while taken < steps:
-            action = np.asarray(info["teacher_action"], dtype=np.float32)
-            _, _, _, _, info = venv.step(action)
-            taken += cfg.n_envs
-        raw = taken / (time.perf_counter() - t0)
+        _, state["info"] = venv.reset(seed=list(range(cfg.n_envs)))
+
+        def teacher_step() -> None:  # the vector env of gymnasium: its info carries the labels
+            action = np.asarray(state["info"]["teacher_action"], dtype=np.float32)
+            state["info"] = venv.step(action)[-1]
+
+        taken, raw = _steps_per_s(teacher_step, steps, cfg.n_envs)
     finally:
         venv.close()
     result = train_imitation(cfg)
@@ -172,12 +185,11 @@ def measure_finetune(
     rng = np.random.default_rng(0)
     try:
         venv.reset()
-        t0 = time.perf_counter()
-        taken = 0
-        while taken < steps:
-            venv.step(rng.integers(0, venv.action_space.nvec, size=(cfg.n_envs, 3)))
-            taken += cfg.n_envs
-        raw = taken / (time.perf_counter() - t0)
+        taken, raw = _steps_per_s(
+            lambda: venv.step(rng.integers(0, venv.action_space.nvec, size=(cfg.n_envs, 3))),
+            steps,
+            cfg.n_envs,
+        )
     finally:
         venv.close()
     result = finetune_policy(cfg)

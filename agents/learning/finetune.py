@@ -325,6 +325,8 @@ def copy_actor_back(policy: Any, net: Any) -> None:
 def _callback(cfg: FinetuneConfig, rows: list[dict[str, float]], started: float) -> Any:
     from stable_baselines3.common.callbacks import BaseCallback
 
+    from agents.learning.training import finished_episode
+
     class FinetuneCallback(BaseCallback):
         """Freezes the actor for the critic's warm-up, records every finished episode, shows
         progress and stops at the wall-time budget."""
@@ -350,17 +352,10 @@ def _callback(cfg: FinetuneConfig, rows: list[dict[str, float]], started: float)
 
         def _on_step(self) -> bool:
             for info in self.locals.get("infos", ()):
-                episode = info.get("episode")
-                if episode is not None:
-                    rows.append(
-                        {
-                            "timesteps": float(self.num_timesteps),
-                            "return": float(episode["r"]),
-                            "length": float(episode["l"]),
-                            "success": float(bool(info.get("is_success", False))),
-                            "actor_training": float(self._rollouts > cfg.critic_warmup_rollouts),
-                        }
-                    )
+                row = finished_episode(info, self.num_timesteps)
+                if row is not None:
+                    training = self._rollouts > cfg.critic_warmup_rollouts
+                    rows.append({**row, "actor_training": float(training)})
             if self._bar is not None:
                 self._bar.update(max(0, self.num_timesteps - self._bar.n))
             if cfg.max_minutes is None:

@@ -46,7 +46,15 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["ALGOS", "CURRICULUM", "TrainConfig", "TrainResult", "plot_learning_curve", "train_ppo"]
+__all__ = [
+    "ALGOS",
+    "CURRICULUM",
+    "TrainConfig",
+    "TrainResult",
+    "finished_episode",
+    "plot_learning_curve",
+    "train_ppo",
+]
 
 ENV_ID = "StereoNav-v1"
 ALGOS = ("ppo", "recurrent-ppo")
@@ -246,6 +254,20 @@ def _vec_env(cfg: TrainConfig, n: int, seed: int) -> Any:
     return SubprocVecEnv(fns, start_method=cfg.start_method)
 
 
+def finished_episode(info: dict[str, Any], timesteps: int) -> dict[str, float] | None:
+    """The learning-curve row of an episode that ended in the step of ``info`` (Monitor's
+    ``info["episode"]``): env steps so far, return, length, success; ``None`` mid-episode."""
+    episode = info.get("episode")
+    if episode is None:
+        return None
+    return {
+        "timesteps": float(timesteps),
+        "return": float(episode["r"]),
+        "length": float(episode["l"]),
+        "success": float(bool(info.get("is_success", False))),
+    }
+
+
 def _callbacks(
     cfg: TrainConfig, rows: list[dict[str, float]], stages: list[dict[str, Any]], eval_env: Any
 ) -> list[Any]:
@@ -283,16 +305,9 @@ def _callbacks(
 
         def _on_step(self) -> bool:
             for info in self.locals.get("infos", ()):
-                ep = info.get("episode")
-                if ep is not None:
-                    rows.append(
-                        {
-                            "timesteps": float(self.num_timesteps),
-                            "return": float(ep["r"]),
-                            "length": float(ep["l"]),
-                            "success": float(bool(info.get("is_success", False))),
-                        }
-                    )
+                row = finished_episode(info, self.num_timesteps)
+                if row is not None:
+                    rows.append(row)
             return True
 
     class TqdmCallback(BaseCallback):
