@@ -47,6 +47,7 @@ import pathlib
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
 from agents.learning.finetune import (
+    RECIPE_STEPS,
     FinetuneConfig,
     FinetuneResult,
     append_to_curve,
@@ -73,12 +74,10 @@ def finetune_of(argv: list[str] | None = None) -> tuple[pathlib.Path | None, int
     """The ``--finetune`` policy (``None``: none) and ``--finetune-steps`` of ``argv``."""
     parser = argparse.ArgumentParser(add_help=False)
     parser.add_argument("--finetune", type=pathlib.Path, default=None)
-    parser.add_argument("--finetune-steps", type=int, default=None)
+    parser.add_argument("--finetune-steps", type=int, default=RECIPE_STEPS)
     args, _ = parser.parse_known_args(argv)
     policy: pathlib.Path | None = args.finetune
-    steps: int | None = args.finetune_steps
-    if steps is None:
-        steps = FinetuneConfig(out_dir=pathlib.Path("."), policy=pathlib.Path(".")).timesteps
+    steps: int = args.finetune_steps
     return policy, steps
 
 
@@ -166,7 +165,7 @@ def imitation_config(argv: list[str] | None = None) -> ImitationConfig:
     parser.add_argument(
         "--finetune-steps",
         type=int,
-        default=FinetuneConfig(out_dir=pathlib.Path("."), policy=pathlib.Path(".")).timesteps,
+        default=RECIPE_STEPS,
         help="then fine-tune the policy with PPO for this many env steps (0: imitation only)",
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")

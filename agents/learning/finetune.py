@@ -51,6 +51,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = [
+    "PHASE",
+    "RECIPE_STEPS",
     "BinActions",
     "FinetuneConfig",
     "FinetuneResult",
@@ -63,6 +65,9 @@ __all__ = [
 
 PHASE = "ppo fine-tuning"
 """The phase name of the fine-tuning's episodes in an imitation run's ``curve.csv``."""
+RECIPE_STEPS = 120_000
+"""The recipe's fine-tuning length, env steps (``FinetuneConfig.timesteps``'s default and
+``train.py --finetune-steps``')."""
 RESET_SEED_OFFSET = 500
 """Env ``i`` of a fine-tuning with seed ``s`` first resets with ``s * 1000 + 500 + i``: apart
 from the imitation's ``s * 1000 + i`` (and every suite seed, which runs in the hundred
@@ -124,7 +129,7 @@ class FinetuneConfig:
     out_dir: pathlib.Path
     policy: pathlib.Path
     seed: int = 0
-    timesteps: int = 120_000
+    timesteps: int = RECIPE_STEPS
     max_minutes: float | None = None
     n_envs: int = 2
     n_steps: int = 1024
