@@ -121,7 +121,11 @@ class FinetuneConfig:
         critic_warmup_rollouts: Rollouts at the start in which only the critic trains.
         normalize_reward: Scale rewards by a running estimate of the return's spread
             (``VecNormalize``, rewards only).
-        torch_threads: torch's threads.
+        torch_threads: torch's threads for the updates.
+        rollout_threads: torch's threads while a rollout is collected: the env processes need
+            the cores then, and a second torch thread only spins against them (with the
+            channels-last updates, the stage ran 1.41x faster than on 2 threads throughout:
+            docs/training.md).
         command: The command line that ran (recorded in the policy).
         progress: Show a progress bar.
     """
@@ -144,11 +148,20 @@ class FinetuneConfig:
     critic_warmup_rollouts: int = 3
     normalize_reward: bool = True
     torch_threads: int = 2
+    rollout_threads: int = 1
     command: str = ""
     progress: bool = True
 
     def __post_init__(self) -> None:
-        for name in ("timesteps", "n_envs", "n_steps", "batch_size", "n_epochs", "torch_threads"):
+        for name in (
+            "timesteps",
+            "n_envs",
+            "n_steps",
+            "batch_size",
+            "n_epochs",
+            "torch_threads",
+            "rollout_threads",
+        ):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
@@ -255,7 +268,8 @@ def _features_class(net: Any) -> Any:
             self.state = copy.deepcopy(net.state)
 
         def forward(self, obs: dict[str, torch.Tensor]) -> torch.Tensor:
-            image = self.encoder(obs["map"].float() / 255.0)
+            maps = (obs["map"].float() / 255.0).contiguous(memory_format=torch.channels_last)
+            image = self.encoder(maps)
             return torch.cat([image, self.state(obs["state"])], dim=1)
 
     return EgoFeatures
@@ -303,6 +317,9 @@ def actor_critic(bundle: Any, env: Any, cfg: FinetuneConfig) -> Any:
             hidden[0].load_state_dict(net.head[0].state_dict())
             hidden[2].load_state_dict(net.head[2].state_dict())
         policy.action_net.load_state_dict(net.head[4].state_dict())
+    # Channels-last (NHWC) convolutions, as the imitation fits: the same sums, faster on this
+    # CPU (the extractor hands its maps over in that layout too).
+    policy.to(memory_format=torch.channels_last)
     return model
 
 
@@ -328,13 +345,15 @@ def copy_actor_back(policy: Any, net: Any) -> None:
 
 
 def _callback(cfg: FinetuneConfig, rows: list[dict[str, float]], started: float) -> Any:
+    import torch
     from stable_baselines3.common.callbacks import BaseCallback
 
     from agents.learning.training import finished_episode
 
     class FinetuneCallback(BaseCallback):
-        """Freezes the actor for the critic's warm-up, records every finished episode, shows
-        progress and stops at the wall-time budget."""
+        """Freezes the actor for the critic's warm-up, sets torch's threads for rollouts and
+        updates, records every finished episode, shows progress and stops at the wall-time
+        budget."""
 
         def _on_training_start(self) -> None:
             self._rollouts = 0
@@ -354,6 +373,10 @@ def _callback(cfg: FinetuneConfig, rows: list[dict[str, float]], started: float)
             if self._rollouts == cfg.critic_warmup_rollouts:
                 self._train_actor(True)
             self._rollouts += 1
+            torch.set_num_threads(cfg.rollout_threads)
+
+        def _on_rollout_end(self) -> None:
+            torch.set_num_threads(cfg.torch_threads)
 
         def _on_step(self) -> bool:
             for info in self.locals.get("infos", ()):
@@ -371,6 +394,7 @@ def _callback(cfg: FinetuneConfig, rows: list[dict[str, float]], started: float)
             if self._bar is not None:
                 self._bar.close()
             self._train_actor(True)
+            torch.set_num_threads(cfg.torch_threads)
 
     return FinetuneCallback()
 

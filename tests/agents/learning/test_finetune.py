@@ -161,6 +161,45 @@ def test_the_critic_warms_up_alone(imitation_policy: pathlib.Path, tmp_path: pat
         assert torch.equal(value, after[name]), name
 
 
+def test_rollouts_run_torch_on_rollout_threads_and_updates_on_torch_threads(
+    imitation_policy: pathlib.Path, tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from stable_baselines3 import PPO
+
+    seen: dict[str, set[int]] = {"rollout": set(), "update": set()}
+    act, train = BinActions.action, PPO.train
+
+    def recording_action(self: BinActions, action: Any) -> Any:
+        seen["rollout"].add(torch.get_num_threads())
+        return act(self, action)
+
+    def recording_train(self: Any) -> None:
+        seen["update"].add(torch.get_num_threads())
+        train(self)
+
+    monkeypatch.setattr(BinActions, "action", recording_action)
+    monkeypatch.setattr(PPO, "train", recording_train)
+    threads = torch.get_num_threads()
+    cfg = FinetuneConfig(
+        out_dir=tmp_path,
+        policy=imitation_policy,
+        timesteps=128,
+        n_envs=1,  # the env steps in this process, where the threads can be seen
+        n_steps=64,
+        batch_size=32,
+        n_epochs=1,
+        torch_threads=2,
+        rollout_threads=1,
+        progress=False,
+    )
+    try:
+        finetune_policy(cfg)
+        assert seen == {"rollout": {1}, "update": {2}}
+        assert torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(threads)
+
+
 @pytest.mark.parametrize(
     ("field", "value"),
     [
@@ -173,6 +212,7 @@ def test_the_critic_warms_up_alone(imitation_policy: pathlib.Path, tmp_path: pat
         ("target_kl", -0.1),
         ("max_minutes", 0),
         ("ent_coef", -0.01),
+        ("rollout_threads", 0),
     ],
 )
 def test_bad_finetuning_configs_are_named(field: str, value: object) -> None:
