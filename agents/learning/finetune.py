@@ -30,7 +30,8 @@ training) and ``finetune.json`` (config, steps, minutes, episodes).
 
 It is the recipe's second stage (``train.py --teacher planner`` runs it after the imitation): on
 the dev split it took three seeds' mirrored students from 0.75, 0.69 and 0.78 success to 0.81,
-0.86 and 0.86 in 120,000 steps, about 20 minutes on 2 cores (docs/training.md).
+0.86 and 0.86 in 120,000 steps: 15 minutes on 2 cores in an end-to-end run of the recipe, whose
+imitation took 22.5 (docs/training.md).
 
 torch and stable-baselines3 are imported inside the functions that need them.
 """
