@@ -50,6 +50,20 @@ def imitation_policy(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
     return train_imitation(cfg).policy_path
 
 
+def tiny_run(policy: pathlib.Path, out: pathlib.Path, **overrides: Any) -> FinetuneConfig:
+    """A fine-tuning of a few 64-step rollouts on one in-process env."""
+    settings: dict[str, Any] = {
+        "timesteps": 128,
+        "n_envs": 1,
+        "n_steps": 64,
+        "batch_size": 32,
+        "n_epochs": 1,
+        "progress": False,
+        **overrides,
+    }
+    return FinetuneConfig(out_dir=out, policy=policy, **settings)
+
+
 def test_bin_actions_send_the_values_the_bins_stand_for() -> None:
     env: Any = BinActions(gym.make("StereoNav-v1", scenario="open", perception="surrogate"), 11)
     assert env.action_space == gym.spaces.MultiDiscrete([11, 11, 11])
@@ -107,18 +121,9 @@ def test_a_finetuning_smoke_run_writes_a_policy_that_loads_and_acts(
     imitation_policy: pathlib.Path, tmp_path: pathlib.Path
 ) -> None:
     before = load_policy(imitation_policy)
-    cfg = FinetuneConfig(
-        out_dir=tmp_path,
-        policy=imitation_policy,
-        timesteps=256,
-        n_envs=1,
-        n_steps=64,
-        batch_size=32,
-        n_epochs=1,
-        critic_warmup_rollouts=1,
-        progress=False,
+    result = finetune_policy(
+        tiny_run(imitation_policy, tmp_path, timesteps=256, critic_warmup_rollouts=1)
     )
-    result = finetune_policy(cfg)
     assert result.steps >= 256 and result.policy_path == tmp_path / "policy.pt"
     after = load_policy(result.policy_path)
     assert after.meta["rules"] == before.meta["rules"]
@@ -144,17 +149,8 @@ def test_a_finetuning_smoke_run_writes_a_policy_that_loads_and_acts(
 
 
 def test_the_critic_warms_up_alone(imitation_policy: pathlib.Path, tmp_path: pathlib.Path) -> None:
-    cfg = FinetuneConfig(
-        out_dir=tmp_path,
-        policy=imitation_policy,
-        timesteps=128,
-        n_envs=1,
-        n_steps=64,
-        batch_size=32,
-        n_epochs=1,
-        critic_warmup_rollouts=5,  # longer than the run: the actor never trains
-        progress=False,
-    )
+    # The warm-up is longer than the run: the actor never trains.
+    cfg = tiny_run(imitation_policy, tmp_path, critic_warmup_rollouts=5)
     before = load_policy(imitation_policy).net.state_dict()
     after = load_policy(finetune_policy(cfg).policy_path).net.state_dict()
     for name, value in before.items():
@@ -180,18 +176,8 @@ def test_rollouts_run_torch_on_rollout_threads_and_updates_on_torch_threads(
     monkeypatch.setattr(BinActions, "action", recording_action)
     monkeypatch.setattr(PPO, "train", recording_train)
     threads = torch.get_num_threads()
-    cfg = FinetuneConfig(
-        out_dir=tmp_path,
-        policy=imitation_policy,
-        timesteps=128,
-        n_envs=1,  # the env steps in this process, where the threads can be seen
-        n_steps=64,
-        batch_size=32,
-        n_epochs=1,
-        torch_threads=2,
-        rollout_threads=1,
-        progress=False,
-    )
+    # One env: it steps in this process, where the threads can be seen.
+    cfg = tiny_run(imitation_policy, tmp_path, torch_threads=2, rollout_threads=1)
     try:
         finetune_policy(cfg)
         assert seen == {"rollout": {1}, "update": {2}}
