@@ -149,18 +149,29 @@ def measure_imitation(args: argparse.Namespace, work: pathlib.Path) -> dict[str,
     finally:
         venv.close()
     result = train_imitation(cfg)
-    loop = result.steps / (result.minutes * 60.0)
-    print(f"raw env: {raw:.1f} steps/s; imitation loop: {loop:.1f} steps/s", flush=True)
     return {
+        **_stage_figures("imitation", "", taken, raw, result),
         **measure_finetune(args, work, result.policy_path),
         **fit_speed(cfg),
         "n_envs": float(cfg.n_envs),
-        "raw_env_steps": float(taken),
-        "raw_env_steps_per_s": raw,
-        "loop_steps": float(result.steps),
         "loop_wall_s": result.minutes * 60.0,
-        "loop_steps_per_s": loop,
-        "loop_over_raw_env": loop / raw,
+    }
+
+
+def _stage_figures(
+    stage: str, prefix: str, taken: int, raw: float, result: Any
+) -> dict[str, float]:
+    """A stage's figures (its env alone: ``taken`` steps at ``raw`` steps/s; its loop:
+    ``result``, an imitation or fine-tuning result with ``steps`` and ``minutes``), their keys
+    starting with ``prefix``; prints the two speeds."""
+    loop = result.steps / (result.minutes * 60.0)
+    print(f"{stage}: raw env {raw:.1f} steps/s; loop {loop:.1f} steps/s", flush=True)
+    return {
+        f"{prefix}raw_env_steps": float(taken),
+        f"{prefix}raw_env_steps_per_s": raw,
+        f"{prefix}loop_steps": float(result.steps),
+        f"{prefix}loop_steps_per_s": loop,
+        f"{prefix}loop_over_raw_env": loop / raw,
     }
 
 
@@ -192,16 +203,7 @@ def measure_finetune(
         )
     finally:
         venv.close()
-    result = finetune_policy(cfg)
-    loop = result.steps / (result.minutes * 60.0)
-    print(f"fine-tuning: raw env {raw:.1f} steps/s; loop {loop:.1f} steps/s", flush=True)
-    return {
-        "finetune_raw_env_steps": float(taken),
-        "finetune_raw_env_steps_per_s": raw,
-        "finetune_loop_steps": float(result.steps),
-        "finetune_loop_steps_per_s": loop,
-        "finetune_loop_over_raw_env": loop / raw,
-    }
+    return _stage_figures("fine-tuning", "finetune_", taken, raw, finetune_policy(cfg))
 
 
 def markdown_imitation(figures: dict[str, float]) -> str:
