@@ -21,7 +21,7 @@ rebuilt along the student's trajectory, labels every state. It writes DIR/policy
 as learned:DIR/policy.pt), DIR/record.json and DIR/curve.csv. Its defaults are
 :class:`agents.learning.imitation.ImitationConfig`'s; ``--teacher-setting replan_every=1``
 sets a field of the teacher's :class:`agents.planning.config.NavigatorConfig` (repeat).
-The imitation's policy is then fine-tuned with PPO for ``--finetune-steps`` env steps (120,000;
+The imitation's policy is then fine-tuned with PPO for ``--finetune-steps`` env steps (240,000;
 0: imitation only) under the same rules (:mod:`agents.learning.finetune`): DIR/policy.pt becomes
 the fine-tuned policy (the imitation's stays in DIR/checkpoints/), beside DIR/finetune.json and
 DIR/finetune_curve.csv. ``--finetune POLICY`` fine-tunes a policy.pt already trained.

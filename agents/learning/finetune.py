@@ -29,9 +29,9 @@ env steps since the fine-tuning started, return, length, success, whether the ac
 training) and ``finetune.json`` (config, steps, minutes, episodes).
 
 It is the recipe's second stage (``train.py --teacher planner`` runs it after the imitation): on
-the dev split it took three seeds' mirrored students from 0.75, 0.69 and 0.78 success to 0.81,
-0.86 and 0.86 in 120,000 steps: 15 minutes on 2 cores in an end-to-end run of the recipe, whose
-imitation took 22.5 (docs/training.md).
+the dev split it took three seeds' mirrored students from 0.75, 0.69 and 0.78 success to 0.89,
+0.89 and 0.91 in 240,000 steps (0.81, 0.86 and 0.86 after 120,000): 30-31 minutes on 2 cores,
+after an imitation of 22.5 (docs/training.md).
 
 torch and stable-baselines3 are imported inside the functions that need them.
 """
@@ -66,7 +66,7 @@ __all__ = [
 
 PHASE = "ppo fine-tuning"
 """The phase name of the fine-tuning's episodes in an imitation run's ``curve.csv``."""
-RECIPE_STEPS = 120_000
+RECIPE_STEPS = 240_000
 """The recipe's fine-tuning length, env steps (``FinetuneConfig.timesteps``'s default and
 ``train.py --finetune-steps``')."""
 RESET_SEED_OFFSET = 500
