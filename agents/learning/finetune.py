@@ -12,8 +12,10 @@ same families, perception and episode rules, no teacher).
 1. builds a PPO actor-critic (:class:`EgoFeatures`: the imitation network's encoder and feature
    MLP; its two hidden layers; its output layer as the action net) and copies the imitation
    weights into it, so that before any update PPO's action distribution *is* the imitation
-   policy's (``tests/agents/learning/test_finetune.py`` checks the logits); the critic gets its
-   own copy of the encoder and hidden layers and a fresh value output;
+   policy's (``tests/agents/learning/test_finetune.py`` checks the logits); the critic reads
+   the actor's encoder and feature MLP through a stop-gradient (``critic_encoder="actor"``;
+   ``"own"`` gives it its own copy of the encoder, trained by the value loss: twice the
+   convolutions) and starts from copies of the hidden layers with a fresh value output;
 2. trains the critic alone for ``critic_warmup_rollouts`` rollouts (the actor's parameters
    frozen), so that the first policy updates use advantages of a critic that knows the returns,
    not of a random one that would pull the actor away from what it imitated;
@@ -29,9 +31,9 @@ env steps since the fine-tuning started, return, length, success, whether the ac
 training) and ``finetune.json`` (config, steps, minutes, episodes).
 
 It is the recipe's second stage (``train.py --teacher planner`` runs it after the imitation): on
-the dev split it took three seeds' mirrored students from 0.75, 0.69 and 0.78 success to 0.89,
-0.89 and 0.91 in 240,000 steps (0.81, 0.86 and 0.86 after 120,000): 30-31 minutes on 2 cores,
-after an imitation of 22.5 (docs/training.md).
+the dev split it took three seeds' mirrored students from 0.75, 0.69 and 0.78 success to 0.92,
+0.92 and 0.83 in 240,000 steps (with a critic on its own encoder 0.89, 0.89 and 0.91, in 30-31
+minutes instead of 25), after an imitation of 22.5 minutes on 2 cores (docs/training.md).
 
 torch and stable-baselines3 are imported inside the functions that need them.
 """
@@ -69,6 +71,8 @@ PHASE = "ppo fine-tuning"
 RECIPE_STEPS = 240_000
 """The recipe's fine-tuning length, env steps (``FinetuneConfig.timesteps``'s default and
 ``train.py --finetune-steps``')."""
+CRITIC_ENCODERS = ("own", "actor")
+"""The values of ``FinetuneConfig.critic_encoder``."""
 RESET_SEED_OFFSET = 500
 """Env ``i`` of a fine-tuning with seed ``s`` first resets with ``s * 1000 + 500 + i``: apart
 from the imitation's ``s * 1000 + i`` (and every suite seed, which runs in the hundred
@@ -120,6 +124,11 @@ class FinetuneConfig:
         gamma: Discount.
         gae_lambda: GAE's lambda.
         critic_warmup_rollouts: Rollouts at the start in which only the critic trains.
+        critic_encoder: ``"own"``: the critic convolves the maps with its own copy of the
+            imitation's encoder, trained by the value loss; ``"actor"``: it reads the actor's
+            encoder and feature MLP through a stop-gradient (its hidden layers and output train,
+            the value loss never reaches the actor), which halves the convolutions of every
+            rollout step and update.
         normalize_reward: Scale rewards by a running estimate of the return's spread
             (``VecNormalize``, rewards only).
         torch_threads: torch's threads for the updates.
@@ -147,6 +156,7 @@ class FinetuneConfig:
     gamma: float = 0.99
     gae_lambda: float = 0.95
     critic_warmup_rollouts: int = 3
+    critic_encoder: str = "actor"
     normalize_reward: bool = True
     torch_threads: int = 2
     rollout_threads: int = 1
@@ -174,6 +184,10 @@ class FinetuneConfig:
             raise ValueError(
                 "critic_warmup_rollouts must be a non-negative integer, "
                 f"got {self.critic_warmup_rollouts!r}"
+            )
+        if self.critic_encoder not in CRITIC_ENCODERS:
+            raise ValueError(
+                f"critic_encoder must be one of {CRITIC_ENCODERS}, got {self.critic_encoder!r}"
             )
         positive = {"learning_rate": self.learning_rate, "clip_range": self.clip_range}
         if self.max_minutes is not None:
@@ -276,17 +290,48 @@ def _features_class(net: Any) -> Any:
     return EgoFeatures
 
 
+def _detached_critic_policy() -> Any:
+    """stable-baselines3's actor-critic for dict observations whose critic reads the shared
+    features through a stop-gradient (``FinetuneConfig.critic_encoder == "actor"``)."""
+    import torch
+    from stable_baselines3.common.policies import MultiInputActorCriticPolicy
+    from stable_baselines3.common.torch_layers import MlpExtractor
+
+    class DetachedCriticMlp(MlpExtractor):
+        """The actor's and the critic's hidden layers; no value gradient reaches the
+        features."""
+
+        def forward_critic(self, features: torch.Tensor) -> torch.Tensor:
+            latent: torch.Tensor = self.value_net(features.detach())
+            return latent
+
+    class DetachedCriticPolicy(MultiInputActorCriticPolicy):
+        """One features extractor (the actor's), the critic's input detached from it."""
+
+        def _build_mlp_extractor(self) -> None:
+            self.mlp_extractor = DetachedCriticMlp(
+                self.features_dim,
+                net_arch=self.net_arch,
+                activation_fn=self.activation_fn,
+                device=self.device,
+            )
+
+    return DetachedCriticPolicy
+
+
 def actor_critic(bundle: Any, env: Any, cfg: FinetuneConfig) -> Any:
     """The PPO model on ``env`` whose actor is ``bundle``'s network (weights copied in) and
-    whose critic starts from the same encoder and hidden layers with a fresh output."""
+    whose critic starts from the same encoder (its own copy, or the actor's read through a
+    stop-gradient: ``cfg.critic_encoder``) and hidden layers with a fresh output."""
     import torch
     from stable_baselines3 import PPO
     from torch import nn
 
     net = bundle.net
     width = net.head[0].out_features
+    shared = cfg.critic_encoder == "actor"
     model = PPO(
-        "MultiInputPolicy",
+        _detached_critic_policy() if shared else "MultiInputPolicy",
         env,
         n_steps=cfg.n_steps,
         batch_size=cfg.batch_size,
@@ -302,7 +347,7 @@ def actor_critic(bundle: Any, env: Any, cfg: FinetuneConfig) -> Any:
         verbose=0,
         policy_kwargs={
             "features_extractor_class": _features_class(net),
-            "share_features_extractor": False,
+            "share_features_extractor": shared,
             "net_arch": {"pi": [width, width], "vf": [width, width]},
             "activation_fn": nn.ReLU,
             "normalize_images": False,
@@ -311,7 +356,7 @@ def actor_critic(bundle: Any, env: Any, cfg: FinetuneConfig) -> Any:
     policy: Any = model.policy
     # PPO's orthogonal initialisation ran over every module: copy the imitation's weights now.
     with torch.no_grad():
-        for features in (policy.pi_features_extractor, policy.vf_features_extractor):
+        for features in {policy.pi_features_extractor, policy.vf_features_extractor}:
             features.encoder.load_state_dict(net.encoder.state_dict())
             features.state.load_state_dict(net.state.state_dict())
         for hidden in (policy.mlp_extractor.policy_net, policy.mlp_extractor.value_net):

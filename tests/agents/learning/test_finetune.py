@@ -74,7 +74,10 @@ def test_bin_actions_send_the_values_the_bins_stand_for() -> None:
     env.close()
 
 
-def test_ppo_starts_from_the_imitation_policy_and_gives_its_actor_back() -> None:
+@pytest.mark.parametrize("critic_encoder", ["own", "actor"])
+def test_ppo_starts_from_the_imitation_policy_and_gives_its_actor_back(
+    critic_encoder: str,
+) -> None:
     torch.manual_seed(0)
     bundle = _new_bundle(SMALL, 11, 32, {})
     meta = {"config": {"env_kwargs": {"perception": "surrogate"}}}
@@ -84,7 +87,9 @@ def test_ppo_starts_from_the_imitation_policy_and_gives_its_actor_back() -> None
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     venv = DummyVecEnv([lambda: BinActions(env, 11)])
-    cfg = FinetuneConfig(out_dir=pathlib.Path("."), policy=pathlib.Path("unused.pt"))
+    cfg = FinetuneConfig(
+        out_dir=pathlib.Path("."), policy=pathlib.Path("unused.pt"), critic_encoder=critic_encoder
+    )
     model = actor_critic(bundle, venv, cfg)
     rng = np.random.default_rng(0)
     maps = torch.from_numpy(rng.integers(0, 256, (5, len(CHANNELS), 16, 16), dtype=np.uint8))
@@ -114,6 +119,46 @@ def test_ppo_starts_from_the_imitation_policy_and_gives_its_actor_back() -> None
     with torch.no_grad():
         back = torch.log_softmax(bundle.net(maps, states), dim=-1)
     torch.testing.assert_close(back, moved, rtol=0, atol=1e-5)
+    venv.close()
+
+
+def test_a_critic_on_the_actors_encoder_sends_it_no_value_gradient() -> None:
+    torch.manual_seed(1)
+    bundle = _new_bundle(SMALL, 11, 32, {})
+    env = make_training_env(
+        {"perception": "surrogate"}, families=("open",), teacher=None, egomap=SMALL
+    )
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    venv = DummyVecEnv([lambda: BinActions(env, 11)])
+    rng = np.random.default_rng(1)
+    maps = torch.from_numpy(rng.integers(0, 256, (4, len(CHANNELS), 16, 16), dtype=np.uint8))
+    obs = {
+        "map": maps.float(),
+        "state": torch.from_numpy(rng.uniform(-1, 1, (4, len(STATE_FEATURES))).astype(np.float32)),
+    }
+    grads = {}
+    for critic_encoder in ("own", "actor"):
+        cfg = FinetuneConfig(
+            out_dir=pathlib.Path("."), policy=pathlib.Path("p.pt"), critic_encoder=critic_encoder
+        )
+        policy = actor_critic(bundle, venv, cfg).policy
+        policy.predict_values(obs).sum().backward()
+        actor_encoder = policy.pi_features_extractor.encoder
+        critic_encoder_grads = [p.grad for p in policy.vf_features_extractor.encoder.parameters()]
+        grads[critic_encoder] = (
+            all(p.grad is None for p in actor_encoder.parameters()),
+            all(g is not None and g.abs().sum() > 0 for g in critic_encoder_grads),
+            policy.pi_features_extractor is policy.vf_features_extractor,
+            sum(p.numel() for p in policy.parameters()),
+        )
+        assert all(p.grad is not None for p in policy.mlp_extractor.value_net.parameters())
+    own, actor = grads["own"], grads["actor"]
+    assert own[:3] == (True, True, False)  # its own encoder learns from the value loss
+    assert actor[:3] == (True, False, True)  # one encoder, which the value loss never reaches
+    encoder = sum(p.numel() for p in bundle.net.encoder.parameters())
+    state = sum(p.numel() for p in bundle.net.state.parameters())
+    assert own[3] - actor[3] == encoder + state
     venv.close()
 
 
@@ -148,9 +193,15 @@ def test_a_finetuning_smoke_run_writes_a_policy_that_loads_and_acts(
     env.close()
 
 
-def test_the_critic_warms_up_alone(imitation_policy: pathlib.Path, tmp_path: pathlib.Path) -> None:
-    # The warm-up is longer than the run: the actor never trains.
-    cfg = tiny_run(imitation_policy, tmp_path, critic_warmup_rollouts=5)
+@pytest.mark.parametrize("critic_encoder", ["own", "actor"])
+def test_the_critic_warms_up_alone(
+    imitation_policy: pathlib.Path, tmp_path: pathlib.Path, critic_encoder: str
+) -> None:
+    # The warm-up is longer than the run: the actor never trains (nor, with the actor's encoder
+    # shared, does that encoder).
+    cfg = tiny_run(
+        imitation_policy, tmp_path, critic_warmup_rollouts=5, critic_encoder=critic_encoder
+    )
     before = load_policy(imitation_policy).net.state_dict()
     after = load_policy(finetune_policy(cfg).policy_path).net.state_dict()
     for name, value in before.items():
@@ -199,6 +250,7 @@ def test_rollouts_run_torch_on_rollout_threads_and_updates_on_torch_threads(
         ("max_minutes", 0),
         ("ent_coef", -0.01),
         ("rollout_threads", 0),
+        ("critic_encoder", "shared"),
     ],
 )
 def test_bad_finetuning_configs_are_named(field: str, value: object) -> None:
