@@ -356,7 +356,8 @@ def actor_critic(bundle: Any, env: Any, cfg: FinetuneConfig) -> Any:
     policy: Any = model.policy
     # PPO's orthogonal initialisation ran over every module: copy the imitation's weights now.
     with torch.no_grad():
-        for features in {policy.pi_features_extractor, policy.vf_features_extractor}:
+        # One extractor when the critic reads the actor's (the same object twice): copy it once.
+        for features in dict.fromkeys((policy.pi_features_extractor, policy.vf_features_extractor)):
             features.encoder.load_state_dict(net.encoder.state_dict())
             features.state.load_state_dict(net.state.state_dict())
         for hidden in (policy.mlp_extractor.policy_net, policy.mlp_extractor.value_net):

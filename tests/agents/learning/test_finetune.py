@@ -64,6 +64,16 @@ def tiny_run(policy: pathlib.Path, out: pathlib.Path, **overrides: Any) -> Finet
     return FinetuneConfig(out_dir=out, policy=policy, **settings)
 
 
+def tiny_venv() -> Any:
+    """One in-process surrogate training env of the small map, with 11-bin actions."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    env = make_training_env(
+        {"perception": "surrogate"}, families=("open",), teacher=None, egomap=SMALL
+    )
+    return DummyVecEnv([lambda: BinActions(env, 11)])
+
+
 def test_bin_actions_send_the_values_the_bins_stand_for() -> None:
     env: Any = BinActions(gym.make("StereoNav-v1", scenario="open", perception="surrogate"), 11)
     assert env.action_space == gym.spaces.MultiDiscrete([11, 11, 11])
@@ -80,13 +90,7 @@ def test_ppo_starts_from_the_imitation_policy_and_gives_its_actor_back(
 ) -> None:
     torch.manual_seed(0)
     bundle = _new_bundle(SMALL, 11, 32, {})
-    meta = {"config": {"env_kwargs": {"perception": "surrogate"}}}
-    env = make_training_env(
-        dict(meta["config"]["env_kwargs"]), families=("open",), teacher=None, egomap=SMALL
-    )
-    from stable_baselines3.common.vec_env import DummyVecEnv
-
-    venv = DummyVecEnv([lambda: BinActions(env, 11)])
+    venv = tiny_venv()
     cfg = FinetuneConfig(
         out_dir=pathlib.Path("."), policy=pathlib.Path("unused.pt"), critic_encoder=critic_encoder
     )
@@ -125,12 +129,7 @@ def test_ppo_starts_from_the_imitation_policy_and_gives_its_actor_back(
 def test_a_critic_on_the_actors_encoder_sends_it_no_value_gradient() -> None:
     torch.manual_seed(1)
     bundle = _new_bundle(SMALL, 11, 32, {})
-    env = make_training_env(
-        {"perception": "surrogate"}, families=("open",), teacher=None, egomap=SMALL
-    )
-    from stable_baselines3.common.vec_env import DummyVecEnv
-
-    venv = DummyVecEnv([lambda: BinActions(env, 11)])
+    venv = tiny_venv()
     rng = np.random.default_rng(1)
     maps = torch.from_numpy(rng.integers(0, 256, (4, len(CHANNELS), 16, 16), dtype=np.uint8))
     obs = {
