@@ -6,7 +6,7 @@
         [--finetune-steps N]
 
     python scripts/train.py --finetune POLICY --out DIR [--seed S] [--n-envs K]
-        [--finetune-steps N] [--torch-threads T]
+        [--finetune-steps N] [--torch-threads T] [--contact-anchor W]
 
     python scripts/train.py --timesteps N --out DIR [--algo ppo|recurrent-ppo] [--n-envs K]
         [--perception stereo|surrogate] [--scenario NAME] [--curriculum [FAMILY ...]]
@@ -98,6 +98,12 @@ def finetune_config(argv: list[str] | None = None) -> FinetuneConfig:
     parser.add_argument(
         "--torch-threads", type=int, default=defaults.torch_threads, help="torch threads"
     )
+    parser.add_argument(
+        "--contact-anchor",
+        type=float,
+        default=defaults.contact_anchor,
+        help="weight of the KL to the imitation policy on contact states (0: none)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     words = sys.argv[1:] if argv is None else argv
@@ -109,6 +115,7 @@ def finetune_config(argv: list[str] | None = None) -> FinetuneConfig:
             n_envs=args.n_envs,
             timesteps=args.finetune_steps,
             torch_threads=args.torch_threads,
+            contact_anchor=args.contact_anchor,
             command="python scripts/train.py " + shlex.join(words),
             progress=not args.no_progress,
         )

@@ -21,6 +21,9 @@ same families, perception and episode rules, no teacher).
    not of a random one that would pull the actor away from what it imitated;
 3. runs PPO with a small step and clip range, and stops early within an update once the
    approximate KL to the rollout's policy passes 1.5 x ``target_kl`` (stable-baselines3's rule);
+   ``contact_anchor`` > 0 then pulls the actor back towards the imitation on each rollout's
+   contact states (:class:`ContactAnchor`; off in the recipe: on the dev split it cut the
+   contact tail and cost success, docs/training.md);
 4. copies the actor back into the imitation network and saves it as a
    :class:`~agents.learning.imitation.PolicyBundle` (``policy.pt``: the same file format, so
    ``evaluate.py --agent learned:PATH`` and ``make_agent("learned:PATH")`` use it as they are),
@@ -57,6 +60,7 @@ __all__ = [
     "PHASE",
     "RECIPE_STEPS",
     "BinActions",
+    "ContactAnchor",
     "FinetuneConfig",
     "FinetuneResult",
     "actor_critic",
@@ -131,6 +135,10 @@ class FinetuneConfig:
             rollout step and update.
         normalize_reward: Scale rewards by a running estimate of the return's spread
             (``VecNormalize``, rewards only).
+        contact_anchor: Weight of the contact anchor (0: none): after each update, ``n_epochs``
+            passes over the rollout's contact states (state feature ``contact`` = 1) pull the
+            actor's distribution towards the imitation policy's, minimising their KL divergence
+            (imitation to actor) times this weight (:class:`ContactAnchor`).
         torch_threads: torch's threads for the updates.
         rollout_threads: torch's threads while a rollout is collected: the env processes need
             the cores then, and a second torch thread only spins against them (with the
@@ -158,6 +166,7 @@ class FinetuneConfig:
     critic_warmup_rollouts: int = 3
     critic_encoder: str = "actor"
     normalize_reward: bool = True
+    contact_anchor: float = 0.0
     torch_threads: int = 2
     rollout_threads: int = 1
     command: str = ""
@@ -201,8 +210,10 @@ class FinetuneConfig:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and 0.0 < value <= 1.0):
                 raise ValueError(f"{name} must be in (0, 1], got {value!r}")
-        if not (isinstance(self.ent_coef, int | float) and self.ent_coef >= 0.0):
-            raise ValueError(f"ent_coef must be a non-negative number, got {self.ent_coef!r}")
+        for name in ("ent_coef", "contact_anchor"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"{name} must be a non-negative number, got {value!r}")
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-friendly dict of the fields."""
@@ -319,18 +330,111 @@ def _detached_critic_policy() -> Any:
     return DetachedCriticPolicy
 
 
+class ContactAnchor:
+    """Pulls the PPO actor back towards a reference policy (the imitation's) on the contact
+    states of each rollout (``FinetuneConfig.contact_anchor``).
+
+    The rules price a contact step at 0.1, what 10 cm of progress earns, and PPO's rollouts draw
+    their actions, so that they leave a contact within a few steps whatever the most probable
+    action is: the updates hardly shape what the policy does in contact, and what they do
+    shape generalises from elsewhere. Fine-tuned students came to back away from *every*
+    contact, backing into what was behind them for tens of steps where the planner (and the
+    student it taught) would drive on (docs/training.md). After each update, ``n_epochs`` passes
+    over the rollout's contact states, in minibatches of PPO's size and with PPO's optimizer and
+    gradient clip, minimise ``weight`` x KL(reference || actor), summed over the three commands;
+    states without contact and the critic are left to PPO.
+
+    Args:
+        reference: The reference network (``(maps, states) -> (N, 3, bins)`` logits); a frozen
+            copy is kept.
+        weight: The KL's weight (> 0).
+    """
+
+    def __init__(self, reference: Any, weight: float) -> None:
+        from agents.learning.egomap import STATE_FEATURES
+
+        self.reference = copy.deepcopy(reference).eval()
+        for parameter in self.reference.parameters():
+            parameter.requires_grad_(False)
+        self.weight = float(weight)
+        self.contact = STATE_FEATURES.index("contact")
+        self.history: list[dict[str, float]] = []
+        """Per update with contact states: their number and the mean KL before and after."""
+
+    def _kl(self, policy: Any, obs: dict[str, Any], target: Any) -> Any:
+        """Mean over ``obs`` of KL(reference || actor), summed over the commands; ``target``:
+        the reference's (N, 3, bins) log-probabilities."""
+        import torch
+
+        heads = policy.get_distribution(obs).distribution  # one Categorical per command
+        log_p = torch.stack([head.logits for head in heads], dim=1)  # normalised log-probs
+        return (target.exp() * (target - log_p)).sum(dim=(1, 2)).mean()
+
+    def update(self, model: Any) -> None:
+        """The anchor's passes over ``model``'s last rollout (after its update); nothing while
+        the actor is frozen (the critic's warm-up) or the rollout touched nothing."""
+        import torch
+
+        policy = model.policy
+        if not policy.action_net.weight.requires_grad:
+            return
+        observations = model.rollout_buffer.observations
+        states = observations["state"].reshape(-1, observations["state"].shape[-1])
+        rows = np.flatnonzero(states[:, self.contact] > 0.5)
+        if rows.size == 0:
+            return
+        maps_all = observations["map"]
+        maps = torch.as_tensor(maps_all.reshape(-1, *maps_all.shape[-3:])[rows])
+        obs = {"map": maps, "state": torch.as_tensor(states[rows])}
+        with torch.no_grad():
+            target = torch.log_softmax(self.reference(obs["map"], obs["state"]), dim=-1)
+            before = float(self._kl(policy, obs, target))
+        policy.set_training_mode(True)
+        for _ in range(model.n_epochs):
+            order = torch.randperm(rows.size)
+            for start in range(0, rows.size, model.batch_size):
+                idx = order[start : start + model.batch_size]
+                batch = {key: value[idx] for key, value in obs.items()}
+                loss = self.weight * self._kl(policy, batch, target[idx])
+                policy.optimizer.zero_grad()
+                loss.backward()
+                torch.nn.utils.clip_grad_norm_(policy.parameters(), model.max_grad_norm)
+                policy.optimizer.step()
+        policy.set_training_mode(False)
+        with torch.no_grad():
+            after = float(self._kl(policy, obs, target))
+        self.history.append({"states": float(rows.size), "kl_before": before, "kl_after": after})
+
+
+def _anchored_ppo() -> Any:
+    """stable-baselines3's PPO that runs its :class:`ContactAnchor` (if any) after each
+    update."""
+    from stable_baselines3 import PPO
+
+    class AnchoredPPO(PPO):
+        """PPO; then the contact anchor's passes over the same rollout."""
+
+        contact_anchor: ContactAnchor | None = None
+
+        def train(self) -> None:
+            super().train()
+            if self.contact_anchor is not None:
+                self.contact_anchor.update(self)
+
+    return AnchoredPPO
+
+
 def actor_critic(bundle: Any, env: Any, cfg: FinetuneConfig) -> Any:
     """The PPO model on ``env`` whose actor is ``bundle``'s network (weights copied in) and
     whose critic starts from the same encoder (its own copy, or the actor's read through a
     stop-gradient: ``cfg.critic_encoder``) and hidden layers with a fresh output."""
     import torch
-    from stable_baselines3 import PPO
     from torch import nn
 
     net = bundle.net
     width = net.head[0].out_features
     shared = cfg.critic_encoder == "actor"
-    model = PPO(
+    model = _anchored_ppo()(
         _detached_critic_policy() if shared else "MultiInputPolicy",
         env,
         n_steps=cfg.n_steps,
@@ -367,6 +471,8 @@ def actor_critic(bundle: Any, env: Any, cfg: FinetuneConfig) -> Any:
     # Channels-last (NHWC) convolutions, as the imitation fits: the same sums, faster on this
     # CPU (the extractor hands its maps over in that layout too).
     policy.to(memory_format=torch.channels_last)
+    if cfg.contact_anchor > 0.0:
+        model.contact_anchor = ContactAnchor(net, cfg.contact_anchor)
     return model
 
 
@@ -484,6 +590,15 @@ def finetune_policy(cfg: FinetuneConfig) -> FinetuneResult:
         if rows
         else math.nan,
     }
+    if model.contact_anchor is not None:
+        history = model.contact_anchor.history
+        summary["contact_anchor"] = {
+            "updates": len(history),
+            **{
+                f"mean_{key}": float(np.mean([h[key] for h in history])) if history else math.nan
+                for key in ("states", "kl_before", "kl_after")
+            },
+        }
     bundle.meta["finetune"] = summary
     out = pathlib.Path(cfg.out_dir)
     out.mkdir(parents=True, exist_ok=True)

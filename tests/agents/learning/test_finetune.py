@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import csv
 import pathlib
 from typing import Any
@@ -161,6 +162,75 @@ def test_a_critic_on_the_actors_encoder_sends_it_no_value_gradient() -> None:
     venv.close()
 
 
+def _contact_kl(policy: Any, reference: Any, obs: dict[str, torch.Tensor]) -> torch.Tensor:
+    """Per state, KL(reference || actor) summed over the three commands."""
+    with torch.no_grad():
+        want = torch.log_softmax(reference(obs["map"], obs["state"]), dim=-1)
+        heads = policy.get_distribution(obs).distribution
+        got = torch.stack([head.logits for head in heads], dim=1)
+    return (want.exp() * (want - got)).sum(dim=(1, 2))
+
+
+def test_the_contact_anchor_pulls_the_actor_back_on_contact_states_only() -> None:
+    torch.manual_seed(2)
+    bundle = _new_bundle(SMALL, 11, 32, {})
+    reference = copy.deepcopy(bundle.net)
+    venv = tiny_venv()
+    cfg = FinetuneConfig(
+        out_dir=pathlib.Path("."),
+        policy=pathlib.Path("p.pt"),
+        n_steps=64,
+        batch_size=8,
+        learning_rate=1e-3,
+        contact_anchor=1.0,
+    )
+    model = actor_critic(bundle, venv, cfg)
+    anchor = model.contact_anchor
+    assert anchor is not None
+    policy = model.policy
+    with torch.no_grad():  # PPO moved the actor away from the imitation
+        for p in policy.action_net.parameters():
+            p.add_(0.3 * torch.randn_like(p))
+    rng = np.random.default_rng(2)
+    buffer = model.rollout_buffer
+    maps = rng.integers(0, 256, buffer.observations["map"].shape).astype(np.float32)
+    states = rng.uniform(-1, 1, buffer.observations["state"].shape).astype(np.float32)
+    contact = STATE_FEATURES.index("contact")
+    states[..., contact] = 0.0
+    buffer.observations["map"][:], buffer.observations["state"][:] = maps, states
+    critic = [p.detach().clone() for p in policy.value_net.parameters()]
+    actor = [p.detach().clone() for p in policy.action_net.parameters()]
+    anchor.update(model)  # a rollout that touched nothing: nothing to do
+    assert anchor.history == []
+    unchanged = zip(actor, policy.action_net.parameters(), strict=True)
+    assert all(torch.equal(a, b) for a, b in unchanged)
+    touched = np.zeros(states.shape[:-1], dtype=bool)
+    touched[::3] = True
+    states[touched, contact] = 1.0
+    buffer.observations["state"][:] = states
+    obs = {
+        "map": torch.from_numpy(maps[touched]),
+        "state": torch.from_numpy(states[touched]),
+    }
+    before = _contact_kl(policy, reference, obs)
+    anchor.update(model)
+    after = _contact_kl(policy, reference, obs)
+    (row,) = anchor.history
+    assert row["states"] == touched.sum()
+    assert row["kl_before"] == pytest.approx(float(before.mean()), rel=1e-4)
+    assert row["kl_after"] == pytest.approx(float(after.mean()), rel=1e-4)
+    assert float(after.mean()) < 0.8 * float(before.mean())
+    # the critic's layers get no gradient from it
+    unchanged = zip(critic, policy.value_net.parameters(), strict=True)
+    assert all(torch.equal(a, b) for a, b in unchanged)
+    # a frozen actor (the critic's warm-up) is left alone
+    for p in policy.action_net.parameters():
+        p.requires_grad_(False)
+    anchor.update(model)
+    assert len(anchor.history) == 1
+    venv.close()
+
+
 def test_a_finetuning_smoke_run_writes_a_policy_that_loads_and_acts(
     imitation_policy: pathlib.Path, tmp_path: pathlib.Path
 ) -> None:
@@ -250,6 +320,8 @@ def test_rollouts_run_torch_on_rollout_threads_and_updates_on_torch_threads(
         ("ent_coef", -0.01),
         ("rollout_threads", 0),
         ("critic_encoder", "shared"),
+        ("contact_anchor", -1.0),
+        ("contact_anchor", float("inf")),
     ],
 )
 def test_bad_finetuning_configs_are_named(field: str, value: object) -> None:
@@ -282,6 +354,13 @@ def test_train_py_fine_tunes_after_the_imitation_or_a_policy_already_trained(
     )
     assert (cfg.policy, cfg.out_dir, cfg.seed, cfg.timesteps) == (policy, tmp_path, 3, 900)
     assert cfg.command.startswith("python scripts/train.py --finetune run/policy.pt")
+    assert cfg.contact_anchor == 0.0
+    anchored = train.finetune_config(
+        ["--finetune", "run/policy.pt", "--out", out, "--contact-anchor", "0.5"]
+    )
+    assert anchored.contact_anchor == 0.5
+    with pytest.raises(SystemExit):
+        train.finetune_config(["--finetune", "p.pt", "--out", out, "--contact-anchor", "-1"])
     imitation = train.imitation_config(
         ["--teacher", "planner", "--out", out, "--finetune-steps", "900"]
     )
