@@ -18,7 +18,11 @@ Then the recipe's second stage, PPO fine-tuning of the policy just trained
 (:mod:`agents.learning.finetune`), the same way: its vector env alone (no teacher), stepped with
 uniformly drawn action bins for ``--timesteps`` steps (``finetune_raw_env_steps_per_s``), then
 ``finetune_policy`` for the same number of steps, set-up and saving included
-(``finetune_loop_steps_per_s``; ``finetune_loop_over_raw_env``).
+(``finetune_loop_steps_per_s``; ``finetune_loop_over_raw_env``), and over PPO's rollouts and
+updates alone, as the env alone is timed without starting its processes
+(``finetune_learn_steps_per_s``; ``finetune_learn_over_raw_env``). The difference,
+``finetune_setup_s`` (loading the policy, starting the env processes, building PPO, saving), is
+paid once per run: a share of a 10,000-step run that the recipe's 240,000 steps make small.
 
 ``--learner backends`` compares RLlib PPO on 1 and 2 env runners against stable-baselines3 on 1 and
 2 envs (docs/rllib.md). All four runs happen in this one process, one after the other, on the env
@@ -203,7 +207,15 @@ def measure_finetune(
         )
     finally:
         venv.close()
-    return _stage_figures("fine-tuning", "finetune_", taken, raw, finetune_policy(cfg))
+    result = finetune_policy(cfg)
+    learn = result.steps / (result.learn_minutes * 60.0)
+    print(f"fine-tuning: loop without set-up and saving {learn:.1f} steps/s", flush=True)
+    return {
+        **_stage_figures("fine-tuning", "finetune_", taken, raw, result),
+        "finetune_learn_steps_per_s": learn,
+        "finetune_learn_over_raw_env": learn / raw,
+        "finetune_setup_s": (result.minutes - result.learn_minutes) * 60.0,
+    }
 
 
 def markdown_imitation(figures: dict[str, float]) -> str:
@@ -224,6 +236,10 @@ def markdown_imitation(figures: dict[str, float]) -> str:
             f"| {figures['finetune_loop_steps']:.0f} "
             f"| {figures['finetune_loop_steps_per_s']:.1f} |",
             f"| ratio | | | {figures['finetune_loop_over_raw_env']:.2f} |",
+            f"| the same loop without its set-up and saving | {figures['n_envs']:.0f} "
+            f"| {figures['finetune_loop_steps']:.0f} "
+            f"| {figures['finetune_learn_steps_per_s']:.1f} |",
+            f"| ratio | | | {figures['finetune_learn_over_raw_env']:.2f} |",
             "",
             "| the recipe's fit, one epoch of 4,096 samples | samples/s |",
             "| --- | ---: |",

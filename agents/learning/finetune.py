@@ -234,12 +234,15 @@ class FinetuneResult:
         steps: Env steps of fine-tuning.
         episodes: Training episodes finished.
         minutes: Wall time, minutes.
+        learn_minutes: The part of it in PPO's rollouts and updates (without loading the
+            policy, starting the env processes and saving).
     """
 
     policy_path: pathlib.Path
     steps: int
     episodes: int
     minutes: float
+    learn_minutes: float
 
 
 def _env_maker(meta: dict[str, Any], egomap: Any, bins: int, seed: int) -> Any:
@@ -573,7 +576,9 @@ def finetune_policy(cfg: FinetuneConfig) -> FinetuneResult:
     rows: list[dict[str, float]] = []
     try:
         model = actor_critic(bundle, venv, cfg)
+        learn_started = time.monotonic()
         model.learn(total_timesteps=cfg.timesteps, callback=_callback(cfg, rows, started))
+        learn_minutes = (time.monotonic() - learn_started) / 60.0
         steps = int(model.num_timesteps)
     finally:
         venv.close()
@@ -586,6 +591,7 @@ def finetune_policy(cfg: FinetuneConfig) -> FinetuneResult:
         "steps": steps,
         "episodes": len(rows),
         "minutes": minutes,
+        "learn_minutes": learn_minutes,
         "success_rate_last_100": float(np.mean([r["success"] for r in rows[-100:]]))
         if rows
         else math.nan,
@@ -610,7 +616,13 @@ def finetune_policy(cfg: FinetuneConfig) -> FinetuneResult:
         writer = csv.DictWriter(fh, fieldnames=fields)
         writer.writeheader()
         writer.writerows(rows)
-    return FinetuneResult(policy_path=path, steps=steps, episodes=len(rows), minutes=minutes)
+    return FinetuneResult(
+        policy_path=path,
+        steps=steps,
+        episodes=len(rows),
+        minutes=minutes,
+        learn_minutes=learn_minutes,
+    )
 
 
 def append_to_curve(curve_csv: pathlib.Path, finetune_csv: pathlib.Path) -> None:

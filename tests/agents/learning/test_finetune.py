@@ -242,6 +242,8 @@ def test_a_finetuning_smoke_run_writes_a_policy_that_loads_and_acts(
     after = load_policy(result.policy_path)
     assert after.meta["rules"] == before.meta["rules"]
     assert after.meta["finetune"]["steps"] == result.steps
+    assert 0.0 < result.learn_minutes < result.minutes  # the set-up and saving lie outside
+    assert after.meta["finetune"]["learn_minutes"] == result.learn_minutes
     changed = [
         not torch.equal(a, b)
         for a, b in zip(
