@@ -137,8 +137,9 @@ class FinetuneConfig:
             (``VecNormalize``, rewards only).
         contact_anchor: Weight of the contact anchor (0: none): after each update, ``n_epochs``
             passes over the rollout's contact states (state feature ``contact`` = 1) pull the
-            actor's distribution towards the imitation policy's, minimising their KL divergence
-            (imitation to actor) times this weight (:class:`ContactAnchor`).
+            actor's distribution towards that of ``policy`` (the imitation's, in the recipe),
+            minimising their KL divergence (``policy`` to actor) times this weight
+            (:class:`ContactAnchor`).
         torch_threads: torch's threads for the updates.
         rollout_threads: torch's threads while a rollout is collected: the env processes need
             the cores then, and a second torch thread only spins against them (with the
@@ -340,12 +341,12 @@ class ContactAnchor:
     The rules price a contact step at 0.1, what 10 cm of progress earns, and PPO's rollouts draw
     their actions, so that they leave a contact within a few steps whatever the most probable
     action is: the updates hardly shape what the policy does in contact, and what they do
-    shape generalises from elsewhere. Fine-tuned students came to back away from *every*
-    contact, backing into what was behind them for tens of steps where the planner (and the
-    student it taught) would drive on (docs/training.md). After each update, ``n_epochs`` passes
-    over the rollout's contact states, in minibatches of PPO's size and with PPO's optimizer and
-    gradient clip, minimise ``weight`` x KL(reference || actor), summed over the three commands;
-    states without contact and the critic are left to PPO.
+    shape generalises from elsewhere. Fine-tuned students came to back away from contacts they
+    should have driven on from, reversing into what was behind them for tens of steps where
+    the planner (and the student it taught) would drive on (docs/training.md). After each
+    update, ``n_epochs`` passes over the rollout's contact states, in minibatches of PPO's size
+    and with PPO's optimizer and gradient clip, minimise ``weight`` x KL(reference || actor),
+    summed over the three commands; states without contact and the critic are left to PPO.
 
     Args:
         reference: The reference network (``(maps, states) -> (N, 3, bins)`` logits); a frozen
