@@ -5,7 +5,8 @@ training envs' wrappers with the teacher's labels (:mod:`.wrappers`), behaviour 
 (:mod:`.imitation`), PPO fine-tuning of their policies (:mod:`.finetune`) and the agent of its
 policies (:mod:`.learned`); the SB3 training loop with its
 curriculum (:mod:`.training`), the agent of a saved SB3 model (:mod:`.ppo`), results over training
-seeds (:mod:`.seeds`) and the RLlib backend, agent and connectors (:mod:`.rllib`). torch is
+seeds (:mod:`.seeds`), the RLlib backend, agent and connectors (:mod:`.rllib`) and the training
+process's allocator setting (:mod:`.allocator`). torch is
 imported here and nowhere else.
 
 May import: :mod:`stereo_nav_env`, :mod:`agents.base`, :mod:`agents.planning` (the teacher, and

@@ -50,6 +50,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.learning.allocator import keep_freed_memory
 from agents.learning.egomap import (
     CHANNELS,
     OBSERVATION_VERSION,
@@ -641,10 +642,14 @@ def _validate(
 def train_imitation(
     cfg: ImitationConfig, on_phase: Callable[[dict[str, Any]], None] | None = None
 ) -> ImitationResult:
-    """Run the recipe (module docstring); ``on_phase`` sees each phase's record."""
+    """Run the recipe (module docstring); ``on_phase`` sees each phase's record.
+
+    Sets this process's ``malloc`` to keep freed memory (:func:`~.allocator.keep_freed_memory`:
+    the fits' minibatches otherwise fault their tensors' pages in afresh each time)."""
     import torch
     from tqdm.auto import tqdm
 
+    keep_freed_memory()
     t0 = time.perf_counter()
     torch.manual_seed(cfg.seed)
     rng = np.random.default_rng(cfg.seed)

@@ -46,6 +46,8 @@ from typing import Any
 
 import numpy as np
 
+from agents.learning.allocator import keep_freed_memory
+
 __all__ = [
     "ALGOS",
     "CURRICULUM",
@@ -375,7 +377,9 @@ def _normalised(env: Any, cfg: TrainConfig, *, training: bool) -> Any:
 
 
 def train_ppo(cfg: TrainConfig) -> TrainResult:
-    """Train (or resume) PPO as :class:`TrainConfig` says; see the module docstring for outputs."""
+    """Train (or resume) PPO as :class:`TrainConfig` says; see the module docstring for outputs.
+
+    Sets this process's ``malloc`` to keep freed memory (:func:`~.allocator.keep_freed_memory`)."""
     import json
 
     import gymnasium as gym
@@ -384,6 +388,7 @@ def train_ppo(cfg: TrainConfig) -> TrainResult:
 
     import stereo_nav_env  # noqa: F401  (registers ENV_ID, looked up below)
 
+    keep_freed_memory()
     torch.set_num_threads(cfg.torch_threads)
     out = cfg.out_dir
     out.mkdir(parents=True, exist_ok=True)
