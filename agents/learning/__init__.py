@@ -6,7 +6,7 @@ training envs' wrappers with the teacher's labels (:mod:`.wrappers`), behaviour 
 policies (:mod:`.learned`); the SB3 training loop with its
 curriculum (:mod:`.training`), the agent of a saved SB3 model (:mod:`.ppo`), results over training
 seeds (:mod:`.seeds`), the RLlib backend, agent and connectors (:mod:`.rllib`) and the training
-process's allocator setting (:mod:`.allocator`). torch is
+process's allocator setting (:mod:`.runtime`). torch is
 imported here and nowhere else.
 
 May import: :mod:`stereo_nav_env`, :mod:`agents.base`, :mod:`agents.planning` (the teacher, and

@@ -50,7 +50,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.learning.allocator import keep_freed_memory
 from agents.learning.egomap import (
     CHANNELS,
     OBSERVATION_VERSION,
@@ -58,6 +57,7 @@ from agents.learning.egomap import (
     EgoMapConfig,
     mirrored,
 )
+from agents.learning.runtime import keep_freed_memory, pinned_maker
 from modeling.validation import with_overrides
 
 __all__ = [
@@ -264,6 +264,8 @@ class ImitationConfig:
         families: Scene families of the training episodes, and ``weights`` their shares.
         weights: Shares of ``families``.
         egomap: The observation geometry.
+        pin_envs: Pin env process ``i`` to core ``i`` when the env processes fill the machine
+            (:func:`~.runtime.pinned_maker`).
         torch_threads: torch's threads in the main process's fits (the student acts on one).
         command: The command line that ran (recorded in the policy).
         progress: Show progress bars.
@@ -292,6 +294,7 @@ class ImitationConfig:
     families: tuple[str, ...] = TRAIN_FAMILIES
     weights: tuple[float, ...] = TRAIN_WEIGHTS
     egomap: EgoMapConfig = field(default_factory=EgoMapConfig)
+    pin_envs: bool = True
     torch_threads: int = 2
     command: str = ""
     progress: bool = True
@@ -425,7 +428,8 @@ class _Dataset:
 
 
 def training_vector_env(cfg: ImitationConfig) -> Any:
-    """The recipe's vector env: ``n_envs`` training envs (in subprocesses when more than one)."""
+    """The recipe's vector env: ``n_envs`` training envs (in subprocesses, pinned to cores as
+    ``cfg.pin_envs`` says, when more than one)."""
     import functools
 
     import gymnasium as gym
@@ -443,7 +447,10 @@ def training_vector_env(cfg: ImitationConfig) -> Any:
     )
     if cfg.n_envs == 1:
         return gym.vector.SyncVectorEnv([make])
-    return gym.vector.AsyncVectorEnv([make] * cfg.n_envs, context="forkserver")
+    makers = [
+        pinned_maker(make, i, cfg.n_envs) if cfg.pin_envs else make for i in range(cfg.n_envs)
+    ]
+    return gym.vector.AsyncVectorEnv(makers, context="forkserver")
 
 
 def _collect(
@@ -644,7 +651,7 @@ def train_imitation(
 ) -> ImitationResult:
     """Run the recipe (module docstring); ``on_phase`` sees each phase's record.
 
-    Sets this process's ``malloc`` to keep freed memory (:func:`~.allocator.keep_freed_memory`:
+    Sets this process's ``malloc`` to keep freed memory (:func:`~.runtime.keep_freed_memory`:
     the fits' minibatches otherwise fault their tensors' pages in afresh each time)."""
     import torch
     from tqdm.auto import tqdm

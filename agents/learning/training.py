@@ -46,7 +46,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.learning.allocator import keep_freed_memory
+from agents.learning.runtime import keep_freed_memory
 
 __all__ = [
     "ALGOS",
@@ -379,7 +379,7 @@ def _normalised(env: Any, cfg: TrainConfig, *, training: bool) -> Any:
 def train_ppo(cfg: TrainConfig) -> TrainResult:
     """Train (or resume) PPO as :class:`TrainConfig` says; see the module docstring for outputs.
 
-    Sets this process's ``malloc`` to keep freed memory (:func:`~.allocator.keep_freed_memory`)."""
+    Sets this process's ``malloc`` to keep freed memory (:func:`~.runtime.keep_freed_memory`)."""
     import json
 
     import gymnasium as gym

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import copy
 import csv
+import os
 import pathlib
+import pickle
 from typing import Any
 
 import gymnasium as gym
@@ -14,6 +16,7 @@ import torch
 
 import stereo_nav_env  # noqa: F401  (registers the ids)
 from agents import make_agent
+from agents.learning import runtime
 from agents.learning.egomap import CHANNELS, STATE_FEATURES, EgoMapConfig
 from agents.learning.finetune import (
     PHASE,
@@ -23,8 +26,15 @@ from agents.learning.finetune import (
     append_to_curve,
     copy_actor_back,
     finetune_policy,
+    finetune_vector_env,
 )
-from agents.learning.imitation import ImitationConfig, _new_bundle, load_policy, train_imitation
+from agents.learning.imitation import (
+    ImitationConfig,
+    _new_bundle,
+    load_policy,
+    train_imitation,
+    training_vector_env,
+)
 from agents.learning.seeds import _phase_starts
 from agents.learning.wrappers import make_training_env
 from tests.scripts.loader import load_script
@@ -262,6 +272,52 @@ def test_a_finetuning_smoke_run_writes_a_policy_that_loads_and_acts(
         assert action.shape == (3,) and np.all(np.abs(action) <= 1.0)
         obs, *_, info = env.step(action)
     env.close()
+
+
+@pytest.mark.parametrize("pin", [True, False])
+def test_the_env_processes_of_both_stages_are_pinned_when_they_fill_the_machine(
+    imitation_policy: pathlib.Path,
+    tmp_path: pathlib.Path,
+    monkeypatch: pytest.MonkeyPatch,
+    pin: bool,
+) -> None:
+    cores = runtime.allowed_cores()
+    # Two env processes fill a machine of two cores (this one's, CI's): decide as on one.
+    monkeypatch.setattr(runtime, "allowed_cores", lambda: cores[:2])
+    imitation = ImitationConfig(
+        out_dir=tmp_path, n_envs=2, families=("open",), weights=(1.0,), egomap=SMALL, pin_envs=pin
+    )
+    venvs = [
+        (training_vector_env(imitation), "processes"),
+        (
+            finetune_vector_env(
+                tiny_run(imitation_policy, tmp_path, n_envs=2, pin_envs=pin),
+                load_policy(imitation_policy),
+            ),
+            "processes",
+        ),
+    ]
+    try:
+        for venv, attribute in venvs:
+            pids = [process.pid for process in getattr(venv, attribute)]
+            expected = [{cores[i % len(cores)]} if pin else set(cores) for i in range(2)]
+            assert [os.sched_getaffinity(pid) for pid in pids] == expected
+        assert os.sched_getaffinity(0) == set(cores)  # the learner's process is left free
+    finally:
+        for venv, _ in venvs:
+            venv.close()
+
+
+def test_env_processes_fewer_than_the_cores_are_left_to_the_scheduler(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(runtime, "allowed_cores", lambda: list(range(16)))
+    assert runtime.pinned_maker(int, 1, 2) is int  # unchanged: 2 env processes, 16 cores
+    monkeypatch.setattr(runtime, "allowed_cores", lambda: [0, 1])
+    pinned = runtime.pinned_maker(int, 1, 2)  # pins, and travels to a subprocess by pickle
+    assert pinned is not int and pickle.loads(pickle.dumps(pinned)).args[:2] == (1, int)
+    before = os.sched_getaffinity(0)
+    assert pinned() == 0 and os.sched_getaffinity(0) == before  # here: made, nothing pinned
 
 
 @pytest.mark.parametrize("critic_encoder", ["own", "actor"])

@@ -11,11 +11,12 @@ import pytest
 
 # In a fresh interpreter (this process's earlier tests move glibc's dynamic thresholds): with
 # or without keep_freed_memory(), malloc 24 MiB, touch it, free it, and report what glibc held
-# in newly mmapped blocks meanwhile and what the heap holds free afterwards (mallinfo2, glibc >= 2.33).
+# in newly mmapped blocks meanwhile and what the heap holds free afterwards (mallinfo2, glibc
+# 2.33 and later).
 PROBE = textwrap.dedent(
     """
     import ctypes, sys
-    from agents.learning.allocator import keep_freed_memory
+    from agents.learning.runtime import keep_freed_memory
 
     class MallInfo2(ctypes.Structure):
         _fields_ = [(name, ctypes.c_size_t) for name in (
@@ -73,7 +74,7 @@ def test_without_it_glibc_maps_the_block_and_gives_it_back() -> None:
 
 
 def test_calling_it_again_is_harmless() -> None:
-    from agents.learning.allocator import keep_freed_memory
+    from agents.learning.runtime import keep_freed_memory
 
     first = keep_freed_memory()
     assert keep_freed_memory() == first
