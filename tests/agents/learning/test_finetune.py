@@ -308,6 +308,18 @@ def test_the_env_processes_of_both_stages_are_pinned_when_they_fill_the_machine(
             venv.close()
 
 
+def test_pinning_changes_nothing_that_is_computed(
+    imitation_policy: pathlib.Path, tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    cores = runtime.allowed_cores()
+    monkeypatch.setattr(runtime, "allowed_cores", lambda: cores[:2])  # 2 env processes: pinned
+    weights = []
+    for pin in (True, False):
+        cfg = tiny_run(imitation_policy, tmp_path / str(pin), n_envs=2, pin_envs=pin)
+        weights.append(load_policy(finetune_policy(cfg).policy_path).net.state_dict())
+    assert all(torch.equal(a, b) for a, b in zip(*(w.values() for w in weights), strict=True))
+
+
 def test_env_processes_fewer_than_the_cores_are_left_to_the_scheduler(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
