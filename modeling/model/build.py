@@ -21,7 +21,9 @@ last call, its relations and isolated short segments are taken again; when the u
 together (the one step that reads the viewpoint besides the occlusion) are equal too, so are the
 elimination, the groups and the situations. The occlusion is always made anew. Where the items
 changed, the relation rows of the pairs of items that did not are taken from the last call's
-(:class:`~modeling.model.relations.EarlierRelations`). The model is the one made without the
+(:class:`~modeling.model.relations.EarlierRelations`), and so are those pairs themselves when
+the unchanged items kept their order: only the pairs of the changed items are looked for. The
+model is the one made without the
 cache (tests hold them equal on recorded fused observations).
 
 The records are in :mod:`modeling.model.records` (re-exported here). Frames: world, metres;
@@ -236,7 +238,9 @@ def build_model(
         )
     if cache is not None:
         cache.key, cache.isolation, cache.units = key, isolation, units
-        cache.earlier = EarlierRelations(items.ends, items.covs, width, rel)
+        cache.earlier = EarlierRelations(
+            items.ends, items.covs, width, rel, eps=eps, group=items.ambiguous
+        )
         cache.after_units = (elimination, groups, situations, residual)
     # Occlusion: behind the obstacles of the most probable situation.
     occluded = occluded_polygons(observation, occluders_of(situations[0]))

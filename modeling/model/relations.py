@@ -23,7 +23,11 @@ reference at the end of this module, which the tests compare it with.
 Relations made before (:class:`EarlierRelations`: the fused memory's model is made after every
 view, and most remembered segments did not change since the last) lend their rows: a pair of
 segments equal bit for bit to an earlier pair, in the same order, has the same row, so only the
-other rows are computed.
+other rows are computed. When the earlier relations were listed for the same width and ``eps``
+and the segments that did not change kept their order (and their groups, up to renumbering),
+the pairs among those are the earlier pairs too (the envelope query and the exact filter judge a
+pair by its two segments alone): only the pairs with a changed segment are looked for, the boxes
+of the changed segments against all others, and the rest come from the earlier rows.
 """
 
 from __future__ import annotations
@@ -125,12 +129,18 @@ class EarlierRelations:
         cov: (n, 2, 2, 2) their endpoint covariances, m^2.
         width_m: The robot width they were made for, metres.
         relations: The relations.
+        eps: The classification tolerance whose candidate pairs they list (None: not known;
+            then only their rows are taken, never their pairs).
+        group: (n,) the group of each of their segments (-1: none; None: no groups), as
+            :func:`segment_relations` took it.
     """
 
     endpoints: FloatArray
     cov: FloatArray
     width_m: float
     relations: SegmentRelations
+    eps: float | None = None
+    group: np.ndarray | None = None
 
 
 def closest_points(
@@ -239,7 +249,25 @@ def segment_relations(
     """
     endpoints = np.ascontiguousarray(endpoints, dtype=np.float64)
     cov = np.ascontiguousarray(cov, dtype=np.float64)
-    if pairs is None:
+    along = None
+    if pairs is None and earlier is not None:
+        along = _pairs_along_earlier(endpoints, cov, float(width_m), eps, group, earlier)
+    if along is not None:
+        # The pairs of unchanged segments and their rows from ``earlier``, the others found and
+        # computed (the same relations: see the module docstring).
+        params, take = along
+        rel = earlier.relations  # type: ignore[union-attr]  # along is None without earlier
+        rows = _gap_kernel.relation_rows_taking(
+            Segments(endpoints, cov),
+            params,
+            float(width_m),
+            QUADRATURE_RULES,
+            take,
+            _gap_kernel.RelationRows(
+                rel.point_i, rel.point_j, rel.cov_i, rel.cov_j, rel.distance_m, rel.p_passable
+            ),
+        )
+    elif pairs is None:
         params = _pairs_and_params(endpoints, cov, width_m, eps)
     else:
         i = np.minimum(pairs[:, 0], pairs[:, 1]).astype(np.int64)
@@ -247,19 +275,16 @@ def segment_relations(
         Ei, Ej = endpoints[i], endpoints[j]
         s, t = closest_points(Ei[:, 0], Ei[:, 1], Ej[:, 0], Ej[:, 1])
         params = PairParams(i, j, s, t)
-    if group is not None:
-        same = (group[params.i] >= 0) & (group[params.i] == group[params.j])
-        if same.any():
-            keep = ~same
-            params = PairParams(params.i[keep], params.j[keep], params.s[keep], params.t[keep])
-    # Closest points, covariances, distance and p_passable of each pair: a compiled loop (its
-    # reference: relation_rows_reference).
-    if earlier is not None and earlier.width_m == float(width_m) and len(earlier.relations):
-        rows = _rows_from_earlier(endpoints, cov, params, float(width_m), earlier)
-    else:
-        rows = _gap_kernel.relation_rows(
-            Segments(endpoints, cov), params, float(width_m), QUADRATURE_RULES
-        )
+    if along is None:
+        params = _ungrouped(params, group)
+        # Closest points, covariances, distance and p_passable of each pair: a compiled loop
+        # (its reference: relation_rows_reference).
+        if earlier is not None and earlier.width_m == float(width_m) and len(earlier.relations):
+            rows = _rows_from_earlier(endpoints, cov, params, float(width_m), earlier)
+        else:
+            rows = _gap_kernel.relation_rows(
+                Segments(endpoints, cov), params, float(width_m), QUADRATURE_RULES
+            )
     return SegmentRelations(
         i=params.i,
         j=params.j,
@@ -271,6 +296,116 @@ def segment_relations(
         p_passable=rows.p_passable,
         kind=classify_gaps(rows.p_passable, eps),
     )
+
+
+def _ungrouped(params: PairParams, group: np.ndarray | None) -> PairParams:
+    """The pairs of ``params`` whose two segments are not of one group (``group`` (n,), -1:
+    none)."""
+    if group is None:
+        return params
+    same = (group[params.i] >= 0) & (group[params.i] == group[params.j])
+    if not same.any():
+        return params
+    keep = ~same
+    return PairParams(params.i[keep], params.j[keep], params.s[keep], params.t[keep])
+
+
+def _pairs_along_earlier(
+    endpoints: FloatArray,
+    cov: FloatArray,
+    width_m: float,
+    eps: float,
+    group: np.ndarray | None,
+    earlier: EarlierRelations,
+) -> tuple[PairParams, np.ndarray] | None:
+    """The pairs of :func:`segment_relations` (sorted by ``(i, j)``, not of one group) and the
+    row of ``earlier`` of each (-1: to compute), the pairs of two unchanged segments taken from
+    ``earlier``'s rows; None where that cannot be done (``earlier`` made for another width or
+    ``eps``, duplicate segments, unchanged segments reordered or regrouped), and then
+    :func:`segment_relations` makes the pairs anew.
+
+    A segment is unchanged when equal bit for bit (endpoints and covariances) to one of
+    ``earlier``. Two unchanged segments are a pair exactly when their earlier selves were (the
+    grown boxes, the distance filter and the group test read only the two segments), and their
+    row is the earlier one when they kept their order. The pairs with a changed segment are
+    found as :func:`candidate_pairs` finds them, with the changed segments' boxes tested
+    against every box (inclusive bounds, as the STRtree's envelope query).
+    """
+    rel = earlier.relations
+    n, n_old = endpoints.shape[0], earlier.endpoints.shape[0]
+    if earlier.eps != eps or earlier.width_m != width_m or len(rel) == 0 or n < 2:
+        return None
+    index = {key: k for k, key in enumerate(_segment_keys(earlier.endpoints, earlier.cov))}
+    if len(index) != n_old:  # duplicates among the earlier segments
+        return None
+    old = np.array([index.get(key, -1) for key in _segment_keys(endpoints, cov)], dtype=np.int64)
+    kept = np.flatnonzero(old >= 0)
+    if np.any(np.diff(old[kept]) <= 0):  # reordered, or one earlier segment twice
+        return None
+    if not _same_grouping(
+        None if group is None else group[kept],
+        None if earlier.group is None else earlier.group[old[kept]],
+    ):
+        return None
+    new_of_old = np.full(n_old, -1, dtype=np.int64)
+    new_of_old[old[kept]] = kept
+    ni, nj = new_of_old[rel.i], new_of_old[rel.j]
+    taken = np.flatnonzero((ni >= 0) & (nj >= 0))
+    found = _pairs_of_changed(endpoints, cov, width_m, eps, old < 0)
+    found = _ungrouped(found, group)
+    i = np.concatenate((ni[taken], found.i))
+    j = np.concatenate((nj[taken], found.j))
+    order = np.argsort(i * n + j, kind="stable")
+    zeros = np.zeros(taken.shape[0])  # parameters of taken rows: not read
+    params = PairParams(
+        i[order],
+        j[order],
+        np.concatenate((zeros, found.s))[order],
+        np.concatenate((zeros, found.t))[order],
+    )
+    take = np.concatenate((taken, np.full(found.i.shape[0], -1, dtype=np.int64)))[order]
+    return params, take
+
+
+def _same_grouping(new: np.ndarray | None, old: np.ndarray | None) -> bool:
+    """Whether two segments are of one group in ``new`` exactly when they are in ``old`` (the
+    groups of the same segments then and now; None: no groups)."""
+    if new is None and old is None:
+        return True
+    a = np.full(0 if new is None else new.shape[0], -1) if old is None else old
+    b = np.full(a.shape[0], -1) if new is None else new
+    if np.any((a < 0) != (b < 0)):
+        return False
+    a, b = a[a >= 0], b[b >= 0]
+    if a.shape[0] == 0:
+        return True
+    # the distinct (old group, new group) links: one per old group and one per new group
+    links = np.unique(a * (int(b.max()) + 1) + b).shape[0]
+    return bool(np.unique(a).shape[0] == links == np.unique(b).shape[0])
+
+
+def _pairs_of_changed(
+    endpoints: FloatArray, cov: FloatArray, width_m: float, eps: float, changed: np.ndarray
+) -> PairParams:
+    """The pairs of :func:`_pairs_and_params` with at least one segment where ``changed`` (n,)
+    bool, sorted by ``(i, j)``: the grown boxes of the changed segments tested against every
+    box, then the exact filter."""
+    k = prune_sigmas(eps)
+    sigma, box = _gap_kernel.grown_boxes(Segments(endpoints, cov), 0.5 * width_m, k)
+    rows = np.flatnonzero(changed)
+    b = box[rows]
+    hit = (
+        (b[:, None, 0] <= box[None, :, 2])
+        & (box[None, :, 0] <= b[:, None, 2])
+        & (b[:, None, 1] <= box[None, :, 3])
+        & (box[None, :, 1] <= b[:, None, 3])
+    )
+    # A pair of two changed segments once (from the lower one), and no segment with itself.
+    hit &= ~changed[None, :] | (np.arange(changed.shape[0])[None, :] > rows[:, None])
+    a, other = np.nonzero(hit)
+    a = rows[a]
+    hits = np.stack((np.minimum(a, other), np.maximum(a, other)))
+    return _gap_kernel.near_pairs(endpoints, sigma, hits, float(width_m), k)
 
 
 def _rows_from_earlier(

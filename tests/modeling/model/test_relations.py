@@ -10,6 +10,7 @@ import pytest
 from modeling.model.gaps import Relation, gap_passable_probability
 from modeling.model.relations import (
     EarlierRelations,
+    _pairs_along_earlier,
     _pairs_and_params,
     candidate_pairs,
     closest_points_reference,
@@ -167,3 +168,56 @@ def test_relations_taking_earlier_rows_equal_those_computed() -> None:
             assert np.array_equal(getattr(got, f.name), getattr(want, f.name)), f.name
     taken = earlier_rows(ends2, cov2, _pairs_and_params(ends2, cov2, W, EPS), earlier)
     assert 0 < np.count_nonzero(taken >= 0) < taken.shape[0]
+
+
+def _next_call(
+    rng: np.random.Generator, ends: np.ndarray, cov: np.ndarray, group: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The segments of a next call in the fused memory's way: the same order, a few dropped,
+    some changed a little, a few new ones appended, the groups renumbered."""
+    n = ends.shape[0]
+    keep = np.sort(rng.permutation(n)[: n - 4])
+    ends2, cov2 = ends[keep].copy(), cov[keep].copy()
+    group2 = np.where(group[keep] >= 0, group[keep] + 3, -1)
+    moved = rng.permutation(keep.shape[0])[:8]
+    ends2[moved] += rng.normal(scale=0.05, size=(8, 2, 2))
+    ends2 = np.concatenate((ends2, rng.uniform(0.0, 5.0, (3, 2, 2))))
+    cov2 = np.concatenate((cov2, np.tile(np.eye(2) * 0.01, (3, 2, 1, 1))))
+    return ends2, cov2, np.concatenate((group2, [-1, -1, 9]))
+
+
+@pytest.mark.parametrize("seed", [12, 13, 14])
+def test_pairs_of_unchanged_segments_taken_from_earlier_relations_equal_those_found(
+    seed: int,
+) -> None:
+    """Where the unchanged segments kept their order and grouping, their pairs come from the
+    earlier relations and only the changed ones' are looked for: the relations equal those
+    made anew, bit for bit; a reordering, a regrouping or another eps makes them anew."""
+    rng = np.random.default_rng(seed)
+    n = 60
+    ends = rng.uniform(0.0, 5.0, (n, 2, 2))
+    cov = np.tile(np.eye(2) * 0.01, (n, 2, 1, 1)) * rng.uniform(0.2, 3.0, (n, 1, 1, 1))
+    group = np.where(rng.random(n) < 0.4, rng.integers(0, 6, n), -1)
+    first = segment_relations(ends, cov, W, EPS, group=group)
+    earlier = EarlierRelations(ends, cov, W, first, eps=EPS, group=group)
+    ends2, cov2, group2 = _next_call(rng, ends, cov, group)
+    merged = group2.copy()
+    merged[merged >= 0] = 5  # every candidate of one ambiguous segment: another grouping
+    flipped = np.arange(ends2.shape[0])[::-1]
+    cases = [
+        (ends2, cov2, group2, EPS, True),
+        (ends2, cov2, merged, EPS, False),
+        (ends2[flipped], cov2[flipped], group2[flipped], EPS, False),
+        (ends2, cov2, group2, 2 * EPS, False),
+    ]
+    for e, c, g, eps, along in cases:
+        got = segment_relations(e, c, W, eps, group=g, earlier=earlier)
+        want = segment_relations(e, c, W, eps, group=g)
+        for f in dataclasses.fields(want):
+            assert np.array_equal(getattr(got, f.name), getattr(want, f.name)), f.name
+        found = _pairs_along_earlier(e, c, W, eps, g, earlier)
+        assert (found is not None) == along
+        if found is not None:
+            params, take = found
+            assert np.array_equal(params.i, want.i) and np.array_equal(params.j, want.j)
+            assert 0 < np.count_nonzero(take >= 0) < take.shape[0]
