@@ -393,8 +393,8 @@ def fused_segments(
             pairs.swapped,
             np.ones(rows.shape[0]) if weight is None else np.asarray(weight, dtype=np.float64),
         ),
+        float(min_var),
     )
-    P = floored_covariances(P, min_var)
     src = new.source[rows]
     # rows of fresh arrays: each segment's arrays are views (made read-only), not copies
     segs = [

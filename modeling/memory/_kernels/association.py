@@ -5,11 +5,12 @@ pass over the (new, remembered) pairs: the same midpoint prefilter, then the 4-d
 Mahalanobis distance of the endpoint difference in both orders. :func:`fuse_pairs` is the
 arithmetic of :func:`modeling.memory.association.fused_segments_reference` (the endpoints
 aligned, the weighted product of Gaussians of
-:func:`modeling.memory.association.gaussian_product`, the larger heights) as one pass over the
-pairs. Both keep the reference's arithmetic in the same order, so the results are equal, not
-only close. A fuse gates five stacks against each other and fuses two or three; in NumPy each
-costs a dozen small array operations (about 0.1 ms), here a few microseconds. :func:`fuse_pairs`
-takes the small named tuples below.
+:func:`modeling.memory.association.gaussian_product`, its variances floored as
+:func:`modeling.memory.association.floored_covariances` floors them, the larger heights) as one
+pass over the pairs. Both keep the reference's arithmetic in the same order, so the results are
+equal, not only close. A fuse gates five stacks against each other and fuses two or three; in
+NumPy each costs a dozen small array operations (about 0.1 ms), here a few microseconds.
+:func:`fuse_pairs` takes the small named tuples below.
 
 Compiled with Numba on first use (:mod:`modeling.jit`); importing this module does not import
 Numba. ``tests/modeling/memory/test_compiled_association.py`` compares them with the references on
@@ -18,6 +19,7 @@ seeded random inputs.
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -103,6 +105,22 @@ def _inverse2(a: float, b: float, d: float) -> tuple[float, float, float]:
     return d / det, -b / det, a / det
 
 
+@compiled_helper
+def _floored2(a: float, b: float, d: float, min_var: float) -> tuple[float, float, float]:
+    """``(c00, c01, c11)`` of ``[[a, b], [b, d]]`` with its variances raised to at least
+    ``min_var`` (> 0) in every direction: the arithmetic of
+    :func:`modeling.memory.association.floored_covariances`, in its order."""
+    m = 0.5 * (a + d)
+    r = math.hypot(0.5 * (a - d), b)
+    if not m - r < min_var:
+        return a, b, d
+    hi = m + r
+    if hi >= min_var and r > 0.0:  # thin: the minor axis raised
+        k = (min_var - (m - r)) / (2.0 * r)
+        return a + k * (hi - a), b + k * (0.0 - b), d + k * (hi - d)
+    return min_var, 0.0, min_var
+
+
 class GaussianSegments(NamedTuple):
     """Uncertain segments as :func:`fuse_pairs` reads them, ``n`` rows (the arrays of a
     :class:`~modeling.memory.association.SegmentStack` but its source)."""
@@ -123,11 +141,13 @@ class FusedPairs(NamedTuple):
 
 @compiled_on_first_call
 def fuse_pairs(
-    mem: GaussianSegments, new: GaussianSegments, pairs: FusedPairs
+    mem: GaussianSegments, new: GaussianSegments, pairs: FusedPairs, min_var: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(mean, cov, top)`` (k, 2, 2), (k, 2, 2, 2), (k, 2) of the remembered segments
     ``pairs.cols`` of ``mem`` fused with the new ones ``pairs.rows`` of ``new`` (endpoints in
-    reverse where ``pairs.swapped``), the new one's information times ``pairs.weight`` (k,)."""
+    reverse where ``pairs.swapped``), the new one's information times ``pairs.weight`` (k,),
+    the covariances' variances raised to at least ``min_var`` (m^2; none when 0) in every
+    direction (the means are the product's)."""
     mem_ends, mem_cov, mem_heights = mem
     new_ends, new_cov, new_heights = new
     rows, cols, swapped, weight = pairs
@@ -149,6 +169,8 @@ def fuse_pairs(
             iy = (a01 * ax + a11 * ay) + (b01 * bx + b11 * by)
             mean[p, e, 0] = p00 * ix + p01 * iy
             mean[p, e, 1] = p01 * ix + p11 * iy
+            if min_var > 0.0:
+                p00, p01, p11 = _floored2(p00, p01, p11, min_var)
             cov[p, e, 0, 0] = p00
             cov[p, e, 0, 1] = p01
             cov[p, e, 1, 0] = p01
