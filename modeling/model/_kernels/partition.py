@@ -154,6 +154,38 @@ def _situation_groups(
     return rows, starts, g_sit, lo, hi, flip
 
 
+@compiled_helper
+def _rows_between_obstacles(
+    order: np.ndarray,
+    act: np.ndarray,
+    base: np.ndarray,
+    base_root: np.ndarray,
+    ri: np.ndarray,
+    rj: np.ndarray,
+) -> np.ndarray:
+    """The rows of ``order`` (in its order) that may lie between two obstacles of some
+    situation: both items active in some situation of ``act`` (S, N), and not two items of one
+    component of the base (``base``: active in every situation; ``base_root``: the root of
+    each item's base component), which are in one obstacle in every situation."""
+    n_sit, n = act.shape
+    somewhere = np.zeros(n, dtype=np.bool_)
+    for s in range(n_sit):
+        for x in range(n):
+            somewhere[x] = somewhere[x] or act[s, x]
+    out = np.empty(order.shape[0], dtype=np.int64)
+    c = 0
+    for q in range(order.shape[0]):
+        r = order[q]
+        a, b = ri[r], rj[r]
+        if not (somewhere[a] and somewhere[b]):
+            continue
+        if base[a] and base[b] and base_root[a] == base_root[b]:
+            continue
+        out[c] = r
+        c += 1
+    return out[:c]
+
+
 @compiled_on_first_call
 def situation_partitions(
     act: np.ndarray,
@@ -174,6 +206,9 @@ def situation_partitions(
     item of its tree, as :func:`modeling.model.obstacles.components` labels them); each
     situation then joins only the rows of its other active items. An obstacle is found again in
     a later situation by its smallest item and its item list, and its links are listed once.
+    The groups are looked for only among the rows that may lie between two obstacles
+    (:func:`_rows_between_obstacles`): a row within one component of the base is within one
+    obstacle in every situation.
     """
     n_sit, n = act.shape
     m = ri.shape[0]
@@ -189,6 +224,8 @@ def situation_partitions(
                 join(base_parent, ri[r], rj[r])
             else:
                 n_var += 1
+    for x in range(n):  # in item order: a parent (smaller) points at its root already
+        base_parent[x] = base_parent[base_parent[x]]
     var_rows = np.empty(n_var, dtype=np.int64)
     imp_list = np.empty(m, dtype=np.int64)
     q = 0
@@ -318,13 +355,17 @@ def situation_partitions(
     for d in range(u):
         links[k : k + link_counts[d]] = parts[d]
         k += link_counts[d]
-    und = _situation_groups(und_order, act, obst, n_obst, ri, rj)
+    # The groups, of the rows that may lie between two obstacles (most undecided and short
+    # passable rows lie within one obstacle of the base, in every situation).
+    und_rows = _rows_between_obstacles(und_order, act, base, base_parent, ri, rj)
+    und = _situation_groups(und_rows, act, obst, n_obst, ri, rj)
     und_bounds = np.zeros(n_sit + 1, dtype=np.int64)
     for g in range(und[2].shape[0]):
         und_bounds[und[2][g] + 1] += 1
     for s in range(n_sit):
         und_bounds[s + 1] += und_bounds[s]
-    pas = _situation_groups(pas_order, act, obst, n_obst, ri, rj)
+    pas_rows = _rows_between_obstacles(pas_order, act, base, base_parent, ri, rj)
+    pas = _situation_groups(pas_rows, act, obst, n_obst, ri, rj)
     return SituationPartitions(
         obstacle, first_obst, items, counts, links, link_counts, und, und_bounds, pas
     )
