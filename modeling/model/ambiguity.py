@@ -32,6 +32,11 @@ those with one effect, and the independent groups.
 
 Items: every unambiguous segment and every candidate of every ambiguous segment (see
 :func:`modeling.model.build.build_model`). Frames: world, metres.
+
+Fig. 7's ranks and pairs and Fig. 8's effects of each round run as compiled loops
+(:mod:`modeling.model._kernels.ambiguity`); their readable references are here
+(:func:`units_moving_together_reference`; :func:`eliminate_units_of_one_effect_reference`, with
+each choice's :func:`_signature`), and tests hold the two equal.
 """
 
 from __future__ import annotations
@@ -57,6 +62,7 @@ __all__ = [
     "Unit",
     "candidate_adjacency",
     "eliminate_units_of_one_effect",
+    "eliminate_units_of_one_effect_reference",
     "independent_groups",
     "units_moving_together",
     "units_moving_together_reference",
@@ -317,9 +323,113 @@ def candidate_adjacency(rel: SegmentRelations, item_amb: np.ndarray) -> Adjacenc
 
 
 def eliminate_units_of_one_effect(
+    units: list[Unit], rel: SegmentRelations, item_amb: np.ndarray, base_active: np.ndarray
+) -> Elimination:
+    """Fig. 8: eliminate the units whose every choice has the same effect, to a fixed point:
+    :func:`eliminate_units_of_one_effect_reference`, each round's effects (signatures) made by
+    one compiled pass over the choices (:func:`modeling.model._kernels.ambiguity.
+    choice_effects`; the same results, which a test holds equal).
+
+    Args:
+        units: The units (Fig. 7).
+        rel: The relations between items.
+        item_amb: (N,) ambiguous index of each item (-1: an unambiguous segment).
+        base_active: (N,) the items of the base model (the kept segments).
+
+    Returns:
+        The remaining units, the eliminated ones and the base model after the elimination.
+    """
+    size = base_active.shape[0] + 1  # the codes' base (see choice_effects)
+    is_cand = np.ascontiguousarray(item_amb >= 0)
+    active = base_active.copy()
+    fixed: list[int] = []
+    merged: dict[int, int] = {}
+    eliminated: list[int] = []
+    remaining = list(range(len(units)))
+    signatures: dict[int, list[bytes]] = {}
+    codes = np.zeros(0, dtype=np.int64)
+    bounds: list[int] = [0]
+    while remaining:
+        choices = [items for u in remaining for items in units[u].items]
+        starts = np.zeros(len(choices) + 1, dtype=np.int64)
+        np.cumsum([len(items) for items in choices], out=starts[1:])
+        codes, code_starts = _ambiguity_kernel.choice_effects(
+            _ambiguity_kernel.ChoiceEffects(
+                ri=rel.i,
+                rj=rel.j,
+                kind=rel.kind,
+                is_cand=is_cand,
+                active=active,
+                items=np.array([x for items in choices for x in items], dtype=np.int64),
+                starts=starts,
+            ),
+            _IMP,
+            int(Relation.UNDECIDED),
+        )
+        bounds = code_starts.tolist()
+        raw = codes.tobytes()  # 8 bytes a code: each choice's signature as bytes
+        signatures, k = {}, 0
+        for u in remaining:
+            m = len(units[u].items)
+            signatures[u] = [raw[8 * bounds[k + q] : 8 * bounds[k + q + 1]] for q in range(m)]
+            k += m
+        gone = [u for u in remaining if all(s == signatures[u][0] for s in signatures[u])]
+        if not gone:
+            break
+        for u in gone:
+            remaining.remove(u)
+            eliminated.extend(units[u].members)
+            if signatures[u][0]:
+                best = int(np.argmax(units[u].probabilities))
+                fixed.extend(units[u].items[best])
+                merged.update(units[u].choices[best])
+        active[fixed] = True
+    return Elimination(
+        remaining=tuple(remaining),
+        eliminated=tuple(eliminated),
+        fixed_items=tuple(fixed),
+        merged=merged,
+        active=active,
+        affected=_affected(units, remaining, signatures, codes, bounds, size),
+    )
+
+
+def _affected(
+    units: list[Unit],
+    remaining: list[int],
+    signatures: dict[int, list[bytes]],
+    codes: np.ndarray,
+    bounds: list[int],
+    size: int,
+) -> dict[int, set[tuple[int, int]]]:
+    """The spaces (obstacle pairs) each remaining unit's choices affect: :func:`_spaces` of
+    the signatures of the last round (``codes``, choice ``k``'s in ``bounds[k]:bounds[k +
+    1]``, the units of ``signatures`` in order), none for a unit not in that round."""
+    effect = (codes // (size * size)).tolist()
+    first, second = (codes // size % size).tolist(), (codes % size).tolist()
+    at: dict[int, tuple[int, int]] = {}  # unit: its codes' range in the last round
+    k = 0
+    for u in signatures:
+        m = len(units[u].items)
+        at[u] = (bounds[k], bounds[k + m])
+        k += m
+    out: dict[int, set[tuple[int, int]]] = {}
+    for u in remaining:
+        lo, hi = at.get(u, (0, 0))
+        out[u] = {
+            (first[c], second[c])
+            for c in range(lo, hi)
+            if effect[c] != _ambiguity_kernel.EFFECT_NEW
+        }
+    return out
+
+
+def eliminate_units_of_one_effect_reference(
     units: list[Unit], rel: SegmentRelations, adjacency: Adjacency, base_active: np.ndarray
 ) -> Elimination:
-    """Fig. 8: eliminate the units whose every choice has the same effect, to a fixed point.
+    """Fig. 8: eliminate the units whose every choice has the same effect, to a fixed point
+    (the readable reference of :func:`eliminate_units_of_one_effect`: each choice's
+    :func:`_signature` in Python).
 
     Args:
         units: The units (Fig. 7).

@@ -40,7 +40,6 @@ import numpy as np
 from modeling.model.ambiguity import (
     Elimination,
     Unit,
-    candidate_adjacency,
     eliminate_units_of_one_effect,
     independent_groups,
     units_moving_together,
@@ -221,10 +220,9 @@ def build_model(
         elimination, groups, situations, residual = cache.after_units
         cache.full_hits += 1
     else:
-        adjacency = candidate_adjacency(rel, items.ambiguous)
         base_active = np.zeros(items.ends.shape[0], dtype=bool)
         base_active[list(isolation.kept_segments)] = True
-        elimination = eliminate_units_of_one_effect(units, rel, adjacency, base_active)
+        elimination = eliminate_units_of_one_effect(units, rel, items.ambiguous, base_active)
         groups = independent_groups(units, elimination, rel, items.ambiguous)
         # Eq. 2: the k most probable situations, with their obstacles, regions and passages.
         situations, residual = enumerate_situations(

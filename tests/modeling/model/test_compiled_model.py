@@ -10,10 +10,22 @@ import numpy as np
 import pytest
 
 import modeling.model.situations as situations_module
+from modeling.model._kernels.ambiguity import ChoiceEffects, choice_effects
 from modeling.model._kernels.hull import finish_hulls
-from modeling.model.ambiguity import units_moving_together, units_moving_together_reference
+from modeling.model.ambiguity import (
+    Effect,
+    Elimination,
+    _base_state,
+    _signature,
+    candidate_adjacency,
+    eliminate_units_of_one_effect,
+    eliminate_units_of_one_effect_reference,
+    units_moving_together,
+    units_moving_together_reference,
+)
 from modeling.model.build import EnvironmentModel, build_model
-from modeling.model.items import items_of
+from modeling.model.gaps import Relation
+from modeling.model.items import isolated_short_segments, item_relations, items_of
 from modeling.model.obstacles import (
     components,
     components_reference,
@@ -264,3 +276,60 @@ def test_k_best_kernel_equals_the_reference(seed: int) -> None:
         assert [np.float64(p).tobytes() for p, _ in got] == [
             np.float64(p).tobytes() for p, _ in want
         ]
+
+
+def _elimination_record(e: Elimination) -> list[object]:
+    return [e.remaining, e.eliminated, e.fixed_items, e.merged, e.active.tobytes(), e.affected]
+
+
+@pytest.mark.parametrize("case", range(6))
+def test_compiled_elimination_equals_its_python_reference(case: int) -> None:
+    """Fig. 8 with each round's signatures from the compiled pass equals the Python signatures'
+    elimination: on the recorded fused observations and shelf scenes, with the base model's
+    items and with random extra items active (other labels, merges and undecided pairs)."""
+    rng = np.random.default_rng(40 + case)
+    obs = _recorded_observations()[case] if case < 3 else _shelf_observation(rng)
+    items = items_of(obs)
+    rel = item_relations(items, 0.5, 0.05)
+    isolation = isolated_short_segments(items, rel, 0.1)
+    units = units_moving_together(
+        obs, isolation.live_ambiguous, items.of_ambiguous, items.ends, 0.5
+    )
+    base = np.zeros(items.ends.shape[0], dtype=bool)
+    base[list(isolation.kept_segments)] = True
+    bases = [base, base | (rng.random(base.shape[0]) < 0.2), np.zeros_like(base)]
+    adjacency = candidate_adjacency(rel, items.ambiguous)
+    counts = {"eliminated": 0, "remaining": 0}
+    effect_of = dict(enumerate((Effect.NEW, Effect.MERGE, Effect.UNDECIDED, Effect.NEAR)))
+    size = items.ends.shape[0] + 1
+    n_changes = 0
+    for active in bases:
+        # Each choice's signature: the compiled codes decoded, against the Python signature.
+        choices = [c for u in units for c in u.items]
+        codes, starts = choice_effects(
+            ChoiceEffects(
+                ri=rel.i,
+                rj=rel.j,
+                kind=rel.kind,
+                is_cand=items.ambiguous >= 0,
+                active=active,
+                items=np.array([x for c in choices for x in c], dtype=np.int64),
+                starts=np.cumsum([0, *(len(c) for c in choices)]),
+            ),
+            int(Relation.IMPASSABLE),
+            int(Relation.UNDECIDED),
+        )
+        labels, und_pairs = _base_state(rel, active)
+        for k, choice in enumerate(choices):
+            mine = codes[starts[k] : starts[k + 1]].tolist()
+            decoded = {(effect_of[c // size // size], c // size % size, c % size) for c in mine}
+            want_sig = _signature(choice, adjacency, labels.tolist(), und_pairs, active.tolist())
+            assert decoded == want_sig
+            n_changes += len(mine)
+        got = eliminate_units_of_one_effect(units, rel, items.ambiguous, active)
+        want = eliminate_units_of_one_effect_reference(units, rel, adjacency, active)
+        assert _elimination_record(got) == _elimination_record(want)
+        counts["eliminated"] += len(got.eliminated)
+        counts["remaining"] += len(got.remaining)
+    assert len(units) > 0 and counts["remaining"] > 0 and n_changes > 0
+    assert case >= 3 or counts["eliminated"] > 0  # the recorded ones eliminate some units
