@@ -43,8 +43,9 @@ from __future__ import annotations
 
 import enum
 import itertools
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -373,16 +374,8 @@ def eliminate_units_of_one_effect(
             m = len(units[u].items)
             signatures[u] = [raw[8 * bounds[k + q] : 8 * bounds[k + q + 1]] for q in range(m)]
             k += m
-        gone = [u for u in remaining if all(s == signatures[u][0] for s in signatures[u])]
-        if not gone:
+        if not _eliminate_round(units, remaining, signatures, eliminated, fixed, merged):
             break
-        for u in gone:
-            remaining.remove(u)
-            eliminated.extend(units[u].members)
-            if signatures[u][0]:
-                best = int(np.argmax(units[u].probabilities))
-                fixed.extend(units[u].items[best])
-                merged.update(units[u].choices[best])
         active[fixed] = True
     return Elimination(
         remaining=tuple(remaining),
@@ -392,6 +385,30 @@ def eliminate_units_of_one_effect(
         active=active,
         affected=_affected(units, remaining, signatures, codes, bounds, size),
     )
+
+
+def _eliminate_round(
+    units: list[Unit],
+    remaining: list[int],
+    signatures: Mapping[int, Sequence[Any]],
+    eliminated: list[int],
+    fixed: list[int],
+    merged: dict[int, int],
+) -> bool:
+    """One round of Fig. 8's elimination, given each remaining unit's choice signatures (any
+    values that compare equal when two choices have the same effect and are false for none):
+    the units whose choices all have one effect leave ``remaining`` for ``eliminated``; where
+    that effect is not none, the most probable choice's items join ``fixed`` and its merges
+    ``merged``. Returns whether any unit left."""
+    gone = [u for u in remaining if all(s == signatures[u][0] for s in signatures[u])]
+    for u in gone:
+        remaining.remove(u)
+        eliminated.extend(units[u].members)
+        if signatures[u][0]:
+            best = int(np.argmax(units[u].probabilities))
+            fixed.extend(units[u].items[best])
+            merged.update(units[u].choices[best])
+    return bool(gone)
 
 
 def _affected(
@@ -457,16 +474,8 @@ def eliminate_units_of_one_effect_reference(
             ]
             for u in remaining
         }
-        gone = [u for u in remaining if all(s == signatures[u][0] for s in signatures[u])]
-        if not gone:
+        if not _eliminate_round(units, remaining, signatures, eliminated, fixed, merged):
             break
-        for u in gone:
-            remaining.remove(u)
-            eliminated.extend(units[u].members)
-            if signatures[u][0]:
-                best = int(np.argmax(units[u].probabilities))
-                fixed.extend(units[u].items[best])
-                merged.update(units[u].choices[best])
         active[fixed] = True
     affected = {
         u: set().union(*(_spaces(s) for s in signatures[u])) if u in signatures else set()
