@@ -143,7 +143,7 @@ class FinetuneConfig:
             minimising their KL divergence (``policy`` to actor) times this weight
             (:class:`ContactAnchor`).
         pin_envs: Pin env process ``i`` to core ``i`` when the env processes fill the machine
-            (:func:`~.runtime.pinned_maker`: the stage ran 1.14x faster on 2 cores).
+            (:func:`~.runtime.pinned_maker`: the stage ran 1.09x faster on 2 cores).
         torch_threads: torch's threads for the updates.
         rollout_threads: torch's threads while a rollout is collected: the env processes need
             the cores then, and a second torch thread only spins against them (with the

@@ -16,15 +16,17 @@ never what is computed. On a C library without glibc's ``mallopt`` (macOS; musl 
 nothing changes.
 
 **Pinned env processes.** Between two steps of a training's env processes the learner acts (and
-every rollout it updates); woken again, an env process the scheduler moved to the other core
-starts on cold caches. When the env processes fill the machine (at least as many as the cores
+every rollout it updates); woken again, an env process that the scheduler moves to the other core
+starts on cold caches (the likely cause of what was measured below; the migrations themselves
+were not counted). When the env processes fill the machine (at least as many as the cores
 this process may use), :func:`pinned_maker` puts env ``i`` on core ``i`` modulo their count for
 good, and the learner goes where there is room. The fine-tuning stage as ``bench_training.py``
 runs it (10,240 steps, 2 env processes, 2 cores), alternating in one run: 232.1, 240.9 and 236.3
 steps/s pinned against 208.4, 206.7 and 203.7 not (the envs' steps inside the loop took 27.7-28.6
 s against 32.2-33.7 s; stepped alone afterwards, the same envs ran at 364-451 steps/s either
-way). With more cores than env processes nothing is pinned: several runs sharing
-a large machine would otherwise all pin their first env to the same core.
+way); as ``bench_training.py`` runs it, 222.4, 229.6 and 257.8 against 217.4, 222.8 and 240.2:
+1.09x over both comparisons. With more cores than env processes nothing is pinned: several runs
+sharing a large machine would otherwise all pin their first env to the same core.
 """
 
 from __future__ import annotations
