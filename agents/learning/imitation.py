@@ -447,9 +447,9 @@ def training_vector_env(cfg: ImitationConfig) -> Any:
     )
     if cfg.n_envs == 1:
         return gym.vector.SyncVectorEnv([make])
-    makers = [
-        pinned_maker(make, i, cfg.n_envs) if cfg.pin_envs else make for i in range(cfg.n_envs)
-    ]
+    makers: list[Callable[[], Any]] = [make] * cfg.n_envs
+    if cfg.pin_envs:
+        makers = [pinned_maker(make, i, cfg.n_envs) for i, make in enumerate(makers)]
     return gym.vector.AsyncVectorEnv(makers, context="forkserver")
 
 

@@ -249,42 +249,44 @@ def segment_relations(
     """
     endpoints = np.ascontiguousarray(endpoints, dtype=np.float64)
     cov = np.ascontiguousarray(cov, dtype=np.float64)
+    width = float(width_m)
     along = None
     if pairs is None and earlier is not None:
-        along = _pairs_along_earlier(endpoints, cov, float(width_m), eps, group, earlier)
+        along = _pairs_along_earlier(endpoints, cov, width, eps, group, earlier)
+    take: np.ndarray | None = None  # the row of ``earlier`` of each pair (-1: to compute)
     if along is not None:
-        # The pairs of unchanged segments and their rows from ``earlier``, the others found and
-        # computed (the same relations: see the module docstring).
+        # The pairs of unchanged segments from ``earlier``, the others found (the same
+        # relations: see the module docstring).
         params, take = along
-        rel = earlier.relations  # type: ignore[union-attr]  # along is None without earlier
+    else:
+        if pairs is None:
+            params = _pairs_and_params(endpoints, cov, width_m, eps)
+        else:
+            i = np.minimum(pairs[:, 0], pairs[:, 1]).astype(np.int64)
+            j = np.maximum(pairs[:, 0], pairs[:, 1]).astype(np.int64)
+            Ei, Ej = endpoints[i], endpoints[j]
+            s, t = closest_points(Ei[:, 0], Ei[:, 1], Ej[:, 0], Ej[:, 1])
+            params = PairParams(i, j, s, t)
+        params = _ungrouped(params, group)
+        if earlier is not None and earlier.width_m == width and len(earlier.relations):
+            take = earlier_rows(endpoints, cov, params, earlier)
+    # Closest points, covariances, distance and p_passable of each pair: a compiled loop (its
+    # references: relation_rows_reference, relation_rows_taking_reference), taking the rows
+    # ``take`` names from ``earlier``.
+    if take is None or earlier is None:
+        rows = _gap_kernel.relation_rows(Segments(endpoints, cov), params, width, QUADRATURE_RULES)
+    else:
+        rel = earlier.relations
         rows = _gap_kernel.relation_rows_taking(
             Segments(endpoints, cov),
             params,
-            float(width_m),
+            width,
             QUADRATURE_RULES,
             take,
             _gap_kernel.RelationRows(
                 rel.point_i, rel.point_j, rel.cov_i, rel.cov_j, rel.distance_m, rel.p_passable
             ),
         )
-    elif pairs is None:
-        params = _pairs_and_params(endpoints, cov, width_m, eps)
-    else:
-        i = np.minimum(pairs[:, 0], pairs[:, 1]).astype(np.int64)
-        j = np.maximum(pairs[:, 0], pairs[:, 1]).astype(np.int64)
-        Ei, Ej = endpoints[i], endpoints[j]
-        s, t = closest_points(Ei[:, 0], Ei[:, 1], Ej[:, 0], Ej[:, 1])
-        params = PairParams(i, j, s, t)
-    if along is None:
-        params = _ungrouped(params, group)
-        # Closest points, covariances, distance and p_passable of each pair: a compiled loop
-        # (its reference: relation_rows_reference).
-        if earlier is not None and earlier.width_m == float(width_m) and len(earlier.relations):
-            rows = _rows_from_earlier(endpoints, cov, params, float(width_m), earlier)
-        else:
-            rows = _gap_kernel.relation_rows(
-                Segments(endpoints, cov), params, float(width_m), QUADRATURE_RULES
-            )
     return SegmentRelations(
         i=params.i,
         j=params.j,
@@ -335,10 +337,9 @@ def _pairs_along_earlier(
     n, n_old = endpoints.shape[0], earlier.endpoints.shape[0]
     if earlier.eps != eps or earlier.width_m != width_m or len(rel) == 0 or n < 2:
         return None
-    index = {key: k for k, key in enumerate(_segment_keys(earlier.endpoints, earlier.cov))}
-    if len(index) != n_old:  # duplicates among the earlier segments
+    old, distinct = _earlier_of(endpoints, cov, earlier)
+    if not distinct:  # duplicates among the earlier segments
         return None
-    old = np.array([index.get(key, -1) for key in _segment_keys(endpoints, cov)], dtype=np.int64)
     kept = np.flatnonzero(old >= 0)
     if np.any(np.diff(old[kept]) <= 0):  # reordered, or one earlier segment twice
         return None
@@ -408,31 +409,6 @@ def _pairs_of_changed(
     return _gap_kernel.near_pairs(endpoints, sigma, hits, float(width_m), k)
 
 
-def _rows_from_earlier(
-    endpoints: FloatArray,
-    cov: FloatArray,
-    params: PairParams,
-    width_m: float,
-    earlier: EarlierRelations,
-) -> _gap_kernel.RelationRows:
-    """The rows of the pairs ``params``: those of ``earlier`` where both segments are equal bit
-    for bit to two earlier segments, in the same order, and that pair has a row there; the
-    others computed (a compiled loop, :func:`modeling.model._kernels.gap.relation_rows_taking`;
-    its reference is :func:`relation_rows_taking_reference`)."""
-    rel = earlier.relations
-    take = earlier_rows(endpoints, cov, params, earlier)
-    return _gap_kernel.relation_rows_taking(
-        Segments(endpoints, cov),
-        params,
-        width_m,
-        QUADRATURE_RULES,
-        take,
-        _gap_kernel.RelationRows(
-            rel.point_i, rel.point_j, rel.cov_i, rel.cov_j, rel.distance_m, rel.p_passable
-        ),
-    )
-
-
 def earlier_rows(
     endpoints: FloatArray, cov: FloatArray, params: PairParams, earlier: EarlierRelations
 ) -> np.ndarray:
@@ -440,8 +416,7 @@ def earlier_rows(
     segments are equal bit for bit (endpoints and covariances) to two earlier segments, in the
     same order, that have a row there."""
     n_old = earlier.endpoints.shape[0]
-    index = {key: k for k, key in enumerate(_segment_keys(earlier.endpoints, earlier.cov))}
-    old = np.array([index.get(key, -1) for key in _segment_keys(endpoints, cov)], dtype=np.int64)
+    old, _ = _earlier_of(endpoints, cov, earlier)
     oi, oj = old[params.i], old[params.j]
     rel = earlier.relations
     old_code = rel.i * n_old + rel.j  # ascending: the rows are sorted by (i, j)
@@ -449,6 +424,16 @@ def earlier_rows(
     at = np.minimum(np.searchsorted(old_code, code), old_code.shape[0] - 1)
     found = (oi >= 0) & (oj > oi) & (old_code[at] == code)
     return np.where(found, at, -1)
+
+
+def _earlier_of(
+    endpoints: FloatArray, cov: FloatArray, earlier: EarlierRelations
+) -> tuple[np.ndarray, bool]:
+    """(n,) the earlier segment equal bit for bit to each segment (-1: none; of equal earlier
+    segments, the last), and whether the earlier segments are all distinct."""
+    index = {key: k for k, key in enumerate(_segment_keys(earlier.endpoints, earlier.cov))}
+    old = np.array([index.get(key, -1) for key in _segment_keys(endpoints, cov)], dtype=np.int64)
+    return old, len(index) == earlier.endpoints.shape[0]
 
 
 def _segment_keys(endpoints: FloatArray, cov: FloatArray) -> list[bytes]:
