@@ -23,6 +23,10 @@ updates alone, as the env alone is timed without starting its processes
 (``finetune_learn_steps_per_s``; ``finetune_learn_over_raw_env``). The difference,
 ``finetune_setup_s`` (loading the policy, starting the env processes, building PPO, saving), is
 paid once per run: a share of a 10,000-step run that the recipe's 240,000 steps make small.
+Last, the rollouts' policy forward alone on one batch of the envs' observations, the
+fine-tuning's against stable-baselines3's, alternately (``forward_per_s_lean``,
+``forward_per_s_sb3``, ``forward_lean_over_sb3``:
+:func:`~agents.learning.finetune.rollout_forward_speed`).
 
 ``--learner backends`` compares RLlib PPO on 1 and 2 env runners against stable-baselines3 on 1 and
 2 envs (docs/rllib.md). All four runs happen in this one process, one after the other, on the env
@@ -53,7 +57,12 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 from _figures import print_figures, write_figures
 
 import stereo_nav_env  # noqa: F401  (registers the ids)
-from agents.learning.finetune import FinetuneConfig, finetune_policy, finetune_vector_env
+from agents.learning.finetune import (
+    FinetuneConfig,
+    finetune_policy,
+    finetune_vector_env,
+    rollout_forward_speed,
+)
 from agents.learning.imitation import (
     ImitationConfig,
     fit_speed,
@@ -196,7 +205,8 @@ def measure_finetune(
         n_envs=args.n_envs,
         progress=False,
     )
-    venv = finetune_vector_env(cfg, load_policy(policy))
+    bundle = load_policy(policy)
+    venv = finetune_vector_env(cfg, bundle)
     rng = np.random.default_rng(0)
     try:
         venv.reset()
@@ -205,6 +215,7 @@ def measure_finetune(
             steps,
             cfg.n_envs,
         )
+        forward = rollout_forward_speed(bundle, venv, cfg)
     finally:
         venv.close()
     result = finetune_policy(cfg)
@@ -215,6 +226,7 @@ def measure_finetune(
         "finetune_learn_steps_per_s": learn,
         "finetune_learn_over_raw_env": learn / raw,
         "finetune_setup_s": (result.minutes - result.learn_minutes) * 60.0,
+        **forward,
     }
 
 
@@ -246,6 +258,12 @@ def markdown_imitation(figures: dict[str, float]) -> str:
             f"| channels-last (the recipe's) | {figures['fit_samples_per_s_channels_last']:.0f} |",
             f"| NCHW | {figures['fit_samples_per_s_nchw']:.0f} |",
             f"| ratio | {figures['fit_channels_last_over_nchw']:.2f} |",
+            "",
+            "| the fine-tuning's policy forward, one batch of the envs' observations | calls/s |",
+            "| --- | ---: |",
+            f"| bins drawn directly (the fine-tuning's) | {figures['forward_per_s_lean']:.0f} |",
+            f"| stable-baselines3's forward | {figures['forward_per_s_sb3']:.0f} |",
+            f"| ratio | {figures['forward_lean_over_sb3']:.2f} |",
         ]
     )
 

@@ -12,7 +12,9 @@ same families, perception and episode rules, no teacher).
 1. builds a PPO actor-critic (:class:`EgoFeatures`: the imitation network's encoder and feature
    MLP; its two hidden layers; its output layer as the action net) and copies the imitation
    weights into it, so that before any update PPO's action distribution *is* the imitation
-   policy's (``tests/agents/learning/test_finetune.py`` checks the logits); the critic reads
+   policy's (``tests/agents/learning/test_finetune.py`` checks the logits); in rollouts it
+   draws the action bins from the logits directly (:func:`sample_bins`: the draws of
+   stable-baselines3's distribution, in a forward that costs about 0.6 of its own); the critic reads
    the actor's encoder and feature MLP through a stop-gradient (``critic_encoder="actor"``;
    ``"own"`` gives it its own copy of the encoder, trained by the value loss: twice the
    convolutions) and starts from copies of the hidden layers with a fresh value output;
@@ -49,6 +51,7 @@ import json
 import math
 import pathlib
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -70,6 +73,8 @@ __all__ = [
     "copy_actor_back",
     "finetune_policy",
     "finetune_vector_env",
+    "rollout_forward_speed",
+    "sample_bins",
 ]
 
 PHASE = "ppo fine-tuning"
@@ -313,6 +318,72 @@ def _features_class(net: Any) -> Any:
     return EgoFeatures
 
 
+def sample_bins(logits: Any, dims: Sequence[int], deterministic: bool = False) -> tuple[Any, Any]:
+    """The actions and their log-probabilities of a policy over ``len(dims)`` commands of
+    ``dims[0]`` bins each, with ``logits`` ((N, sum(dims)): the commands' logits side by side),
+    drawn (or, ``deterministic``, the most probable) as stable-baselines3's
+    ``MultiCategoricalDistribution`` draws them: per command a categorical over its normalised
+    logits, drawn in one ``torch.multinomial`` call whose rows come command by command, which
+    draws what one call per command draws: from the same random state the actions and
+    log-probabilities are the same bit for bit (``tests/agents/learning/test_finetune.py``);
+    without building and checking a ``torch.distributions.Categorical`` per command, which took
+    over a third of the rollouts' policy forward (docs/training.md).
+
+    Returns:
+        (N, len(dims)) int64 actions and (N,) log-probabilities (summed over the commands).
+
+    Raises:
+        ValueError: When the commands' bins differ in number or do not add up to the logits'
+            width.
+    """
+    import torch
+
+    bins = int(dims[0]) if len(dims) else 0
+    if bins < 1 or any(int(d) != bins for d in dims) or logits.shape[-1] != bins * len(dims):
+        raise ValueError(
+            f"dims must be equal bin counts adding up to the logits' width {logits.shape[-1]}, "
+            f"got {list(dims)}"
+        )
+    n, commands = logits.shape[0], len(dims)
+    per_command = logits.view(n, commands, bins).transpose(0, 1)  # (commands, N, bins)
+    normalised = per_command - per_command.logsumexp(dim=-1, keepdim=True)
+    probs = torch.softmax(normalised, dim=-1)
+    if deterministic:
+        actions = torch.argmax(probs, dim=-1)
+    else:  # rows in command order: the draws of one multinomial call per command
+        actions = torch.multinomial(probs.reshape(commands * n, bins), 1, True).view(commands, n)
+    log_probs = normalised.gather(-1, actions.unsqueeze(-1)).squeeze(-1)
+    return actions.T, log_probs.sum(dim=0)
+
+
+def _bin_policy(base: Any) -> Any:
+    """``base`` (a stable-baselines3 actor-critic for dict observations) whose ``forward``, the
+    rollouts' call, draws its multi-discrete actions with :func:`sample_bins` (the same draws,
+    values and log-probabilities as ``base.forward``; updates still go through ``base``'s
+    distribution: ``evaluate_actions``)."""
+    import torch
+
+    class BinPolicy(base):  # type: ignore[misc]
+        """``base`` with a lean rollout forward over its action bins."""
+
+        def forward(
+            self, obs: Any, deterministic: bool = False
+        ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+            features = self.extract_features(obs)
+            if self.share_features_extractor:
+                latent_pi, latent_vf = self.mlp_extractor(features)
+            else:
+                latent_pi = self.mlp_extractor.forward_actor(features[0])
+                latent_vf = self.mlp_extractor.forward_critic(features[1])
+            values = self.value_net(latent_vf)
+            actions, log_prob = sample_bins(
+                self.action_net(latent_pi), self.action_dist.action_dims, deterministic
+            )
+            return actions.reshape((-1, *self.action_space.shape)), values, log_prob
+
+    return BinPolicy
+
+
 def _detached_critic_policy() -> Any:
     """stable-baselines3's actor-critic for dict observations whose critic reads the shared
     features through a stop-gradient (``FinetuneConfig.critic_encoder == "actor"``)."""
@@ -441,13 +512,14 @@ def actor_critic(bundle: Any, env: Any, cfg: FinetuneConfig) -> Any:
     whose critic starts from the same encoder (its own copy, or the actor's read through a
     stop-gradient: ``cfg.critic_encoder``) and hidden layers with a fresh output."""
     import torch
+    from stable_baselines3.common.policies import MultiInputActorCriticPolicy
     from torch import nn
 
     net = bundle.net
     width = net.head[0].out_features
     shared = cfg.critic_encoder == "actor"
     model = _anchored_ppo()(
-        _detached_critic_policy() if shared else "MultiInputPolicy",
+        _bin_policy(_detached_critic_policy() if shared else MultiInputActorCriticPolicy),
         env,
         n_steps=cfg.n_steps,
         batch_size=cfg.batch_size,
@@ -486,6 +558,43 @@ def actor_critic(bundle: Any, env: Any, cfg: FinetuneConfig) -> Any:
     if cfg.contact_anchor > 0.0:
         model.contact_anchor = ContactAnchor(net, cfg.contact_anchor)
     return model
+
+
+def rollout_forward_speed(
+    bundle: Any, venv: Any, cfg: FinetuneConfig, calls: int = 400, repeats: int = 3
+) -> dict[str, float]:
+    """Policy forwards per second as a rollout calls them (one batch of ``venv``'s observations
+    after a reset, ``cfg.rollout_threads`` threads, no gradient): the fine-tuning's forward
+    (:func:`sample_bins`) and stable-baselines3's ``ActorCriticPolicy.forward`` on the same
+    policy, alternately ``repeats`` times ``calls`` each; the best of each and their ratio
+    (``forward_lean_over_sb3``). Printed by ``scripts/bench_training.py``."""
+    import torch
+    from stable_baselines3.common.policies import ActorCriticPolicy
+    from stable_baselines3.common.utils import obs_as_tensor
+
+    threads = torch.get_num_threads()
+    torch.set_num_threads(cfg.rollout_threads)
+    try:
+        policy = actor_critic(bundle, venv, cfg).policy
+        policy.set_training_mode(False)
+        obs = obs_as_tensor(venv.reset(), policy.device)
+        forwards = {"lean": policy.forward, "sb3": lambda o: ActorCriticPolicy.forward(policy, o)}
+        best = dict.fromkeys(forwards, 0.0)
+        with torch.no_grad():
+            for _ in range(repeats):
+                for name, forward in forwards.items():
+                    forward(obs)
+                    t0 = time.perf_counter()
+                    for _ in range(calls):
+                        forward(obs)
+                    best[name] = max(best[name], calls / (time.perf_counter() - t0))
+    finally:
+        torch.set_num_threads(threads)
+    return {
+        "forward_per_s_lean": best["lean"],
+        "forward_per_s_sb3": best["sb3"],
+        "forward_lean_over_sb3": best["lean"] / best["sb3"],
+    }
 
 
 def _actor_parameters(policy: Any) -> list[Any]:

@@ -27,6 +27,8 @@ from agents.learning.finetune import (
     copy_actor_back,
     finetune_policy,
     finetune_vector_env,
+    rollout_forward_speed,
+    sample_bins,
 )
 from agents.learning.imitation import (
     ImitationConfig,
@@ -134,6 +136,91 @@ def test_ppo_starts_from_the_imitation_policy_and_gives_its_actor_back(
     with torch.no_grad():
         back = torch.log_softmax(bundle.net(maps, states), dim=-1)
     torch.testing.assert_close(back, moved, rtol=0, atol=1e-5)
+    venv.close()
+
+
+@pytest.mark.parametrize("deterministic", [False, True])
+def test_sample_bins_draws_what_stable_baselines3s_distribution_draws(
+    deterministic: bool,
+) -> None:
+    from stable_baselines3.common.distributions import MultiCategoricalDistribution
+
+    generator = torch.Generator().manual_seed(0)
+    for trial in range(40):
+        n = int(torch.randint(1, 9, (1,), generator=generator))
+        logits = torch.randn(n, 33, generator=generator) * 3.0
+        dist = MultiCategoricalDistribution([11, 11, 11]).proba_distribution(logits)
+        torch.manual_seed(trial)
+        want = dist.get_actions(deterministic=deterministic)
+        want_log_prob = dist.log_prob(want)
+        torch.manual_seed(trial)
+        got, got_log_prob = sample_bins(logits, [11, 11, 11], deterministic)
+        assert torch.equal(got, want) and torch.equal(got_log_prob, want_log_prob)
+    # the draws are draws: over many states each command's bins come at their probabilities
+    logits = torch.log(torch.tensor([[0.7, 0.2, 0.1, 0.5, 0.5, 1e-9]]))
+    torch.manual_seed(1)
+    counts = np.zeros((2, 3))
+    for _ in range(2000):
+        action, _ = sample_bins(logits, [3, 3])
+        counts[0, action[0, 0]] += 1
+        counts[1, action[0, 1]] += 1
+    np.testing.assert_allclose(counts / 2000, [[0.7, 0.2, 0.1], [0.5, 0.5, 0.0]], atol=0.04)
+    with pytest.raises(ValueError, match="dims"):
+        sample_bins(torch.zeros(1, 5), [3, 2])
+    with pytest.raises(ValueError, match="dims"):
+        sample_bins(torch.zeros(1, 6), [3, 3, 3])
+
+
+@pytest.mark.parametrize("critic_encoder", ["own", "actor"])
+def test_the_rollout_forward_gives_what_stable_baselines3s_forward_gives(
+    critic_encoder: str,
+) -> None:
+    from stable_baselines3.common.policies import ActorCriticPolicy
+
+    torch.manual_seed(0)
+    bundle = _new_bundle(SMALL, 11, 32, {})
+    venv = tiny_venv()
+    cfg = FinetuneConfig(
+        out_dir=pathlib.Path("."), policy=pathlib.Path("unused.pt"), critic_encoder=critic_encoder
+    )
+    policy = actor_critic(bundle, venv, cfg).policy
+    policy.set_training_mode(False)
+    assert type(policy).forward is not ActorCriticPolicy.forward
+    rng = np.random.default_rng(0)
+    for n in (1, 2, 5):
+        obs: Any = {
+            "map": torch.from_numpy(
+                rng.integers(0, 256, (n, len(CHANNELS), 16, 16), dtype=np.uint8)
+            ),
+            "state": torch.from_numpy(
+                rng.uniform(-1, 1, (n, len(STATE_FEATURES))).astype(np.float32)
+            ),
+        }
+        for deterministic in (False, True):
+            with torch.no_grad():
+                torch.manual_seed(n)
+                got = policy(obs, deterministic=deterministic)
+                torch.manual_seed(n)
+                want = ActorCriticPolicy.forward(policy, obs, deterministic=deterministic)
+            for got_part, want_part in zip(got, want, strict=True):
+                assert got_part.shape == want_part.shape
+                assert torch.equal(got_part, want_part)
+    venv.close()
+
+
+def test_rollout_forward_speed_times_both_forwards_and_restores_the_threads() -> None:
+    bundle = _new_bundle(SMALL, 11, 32, {})
+    venv = tiny_venv()
+    cfg = FinetuneConfig(
+        out_dir=pathlib.Path("."), policy=pathlib.Path("unused.pt"), rollout_threads=1
+    )
+    threads = torch.get_num_threads()
+    speed = rollout_forward_speed(bundle, venv, cfg, calls=3, repeats=1)
+    assert torch.get_num_threads() == threads
+    assert speed["forward_per_s_lean"] > 0 and speed["forward_per_s_sb3"] > 0
+    assert speed["forward_lean_over_sb3"] == pytest.approx(
+        speed["forward_per_s_lean"] / speed["forward_per_s_sb3"]
+    )
     venv.close()
 
 
