@@ -97,7 +97,7 @@ from agents.planning.planner import PlannerCore
 from agents.planning.recovery import Recovery
 from modeling.model.records import EnvironmentModel
 from modeling.types import BoolArray, FloatArray, IntArray
-from modeling.validation import reject_unknown
+from modeling.validation import number, reject_unknown
 
 __all__ = [
     "CHANNELS",
@@ -192,9 +192,7 @@ class EgoMapConfig:
         if isinstance(self.size_px, bool) or not isinstance(self.size_px, int) or self.size_px < 8:
             raise ValueError(f"size_px must be an integer >= 8, got {self.size_px!r}")
         for name in ("cell_m", "cost_range_m", "goal_range_m", "route_ahead_m"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a positive number, got {value!r}")
+            number(getattr(self, name), name, low=0.0)
         if not 0.02 <= self.memory_resolution_m <= 0.5:
             raise ValueError(
                 f"memory_resolution_m must be in [0.02, 0.5], got {self.memory_resolution_m!r}"

@@ -60,6 +60,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.learning.runtime import keep_freed_memory, pinned_maker
+from modeling.validation import number
 
 __all__ = [
     "PHASE",
@@ -215,16 +216,12 @@ class FinetuneConfig:
         if self.target_kl is not None:
             positive["target_kl"] = self.target_kl
         for name, value in positive.items():
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a positive number, got {value!r}")
+            number(value, name, low=0.0)
         for name in ("gamma", "gae_lambda"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and 0.0 < value <= 1.0):
-                raise ValueError(f"{name} must be in (0, 1], got {value!r}")
+            if number(getattr(self, name), name, low=0.0) > 1.0:
+                raise ValueError(f"{name} must be in (0, 1], got {getattr(self, name)!r}")
         for name in ("ent_coef", "contact_anchor"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0.0):
-                raise ValueError(f"{name} must be a non-negative number, got {value!r}")
+            number(getattr(self, name), name, low=0.0, strict=False)
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-friendly dict of the fields."""

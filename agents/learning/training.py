@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from agents.learning.runtime import keep_freed_memory
+from modeling.validation import number
 
 __all__ = [
     "ALGOS",
@@ -183,16 +184,12 @@ class TrainConfig:
             and self.max_minutes > 0
         ):
             raise ValueError(f"max_minutes must be a positive number, got {self.max_minutes!r}")
-        if not (isinstance(self.ent_coef, int | float) and self.ent_coef >= 0):
-            raise ValueError(f"ent_coef must be a non-negative number, got {self.ent_coef!r}")
+        number(self.ent_coef, "ent_coef", low=0.0, strict=False)
         arch = tuple(self.net_arch)
         if not arch or not all(isinstance(n, int) and n >= 1 for n in arch):
             raise ValueError(f"net_arch must be positive layer sizes, got {self.net_arch!r}")
         object.__setattr__(self, "net_arch", arch)
-        if not (
-            isinstance(self.curriculum_threshold, int | float)
-            and 0 < self.curriculum_threshold <= 1
-        ):
+        if number(self.curriculum_threshold, "curriculum_threshold", low=0.0) > 1.0:
             raise ValueError(
                 f"curriculum_threshold must be in (0, 1], got {self.curriculum_threshold!r}"
             )

@@ -190,6 +190,8 @@ def test_bad_settings_are_named() -> None:
         EgoMapConfig(size_px=4)
     with pytest.raises(ValueError, match="cell_m"):
         EgoMapConfig(cell_m=-1.0)
+    with pytest.raises(ValueError, match="goal_range_m"):
+        EgoMapConfig(goal_range_m=True)
     with pytest.raises(ValueError, match="did you mean"):
         EgoMapConfig.from_dict({"size_pxx": 32})
     with pytest.raises(RuntimeError, match="before reset"):

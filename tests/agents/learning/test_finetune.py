@@ -479,6 +479,10 @@ def test_rollouts_run_torch_on_rollout_threads_and_updates_on_torch_threads(
         ("critic_encoder", "shared"),
         ("contact_anchor", -1.0),
         ("contact_anchor", float("inf")),
+        ("contact_anchor", True),
+        ("ent_coef", True),
+        ("learning_rate", True),
+        ("gamma", True),
     ],
 )
 def test_bad_finetuning_configs_are_named(field: str, value: object) -> None:

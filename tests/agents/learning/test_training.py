@@ -163,6 +163,9 @@ def test_train_config_rejects_bad_values(tmp_path) -> None:
         TrainConfig(timesteps=10, out_dir=tmp_path, resume=tmp_path / "missing.zip")
     with pytest.raises(ValueError, match="max_minutes must be a positive number"):
         TrainConfig(timesteps=10, out_dir=tmp_path, max_minutes=0)
+    for field, value in (("ent_coef", True), ("ent_coef", -0.1), ("curriculum_threshold", True)):
+        with pytest.raises(ValueError, match=field):
+            TrainConfig(timesteps=10, out_dir=tmp_path, **{field: value})
 
 
 def test_a_spent_time_budget_stops_training_and_still_saves(tmp_path, small_map) -> None:
