@@ -105,7 +105,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         out["training"][str(run)] = _training_record(run)
     args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps(out, indent=2) + "\n")
-    rows = {f"trained / {f}": s for f, s in out["families"].items()}
+    rows = {f"learned / {f}": s for f, s in out["families"].items()}
     for family, summary in out["baselines"].items():
         for name, s in summary.items():
             rows[f"{name} / {family}"] = {

@@ -254,3 +254,49 @@ def test_collision_report_with_memory_measures_what_the_fused_memory_held(
     assert report._fused_distance(memory, point) == pytest.approx(0.05)
     printed = capsys.readouterr().out
     assert "first contacts 1: the fused memory held 0 within 0.1 m just before, not 1" in printed
+
+
+def test_seed_benchmark_scores_each_run_and_baseline_on_the_same_episodes(
+    tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import shutil
+
+    from agents.learning.egomap import EgoMapConfig
+    from agents.learning.imitation import ImitationConfig, train_imitation
+
+    first = tmp_path / "seed0"
+    train_imitation(
+        ImitationConfig(
+            out_dir=first, n_envs=1, demo_steps=60, rounds=0, epochs=1, width=16,
+            families=("open",), weights=(1.0,), egomap=EgoMapConfig(size_px=16, cell_m=0.5),
+            progress=False,
+        )
+    )  # fmt: skip
+    second = tmp_path / "seed1"
+    shutil.copytree(first, second)
+    out = load_script("seed_benchmark").main(
+        [
+            "--run", str(first), "--run", str(second), "--baseline", "oracle",
+            "--families", "open", "--episodes", "2", "--perception", "surrogate",
+            "--json", str(tmp_path / "seeds.json"), "--markdown", str(tmp_path / "seeds.md"),
+            "--no-progress",
+        ]
+    )  # fmt: skip
+    assert json.loads((tmp_path / "seeds.json").read_text()) == out
+    assert (out["split"], out["suite_seed"]) == ("dev", 0)
+    assert list(out["families"]) == ["open", "pooled"]
+    pooled = out["families"]["pooled"]
+    assert pooled["seeds"] == 2 and pooled["episodes"] == 2
+    # the same policy on the same episodes scores the same under either run's name
+    runs = list(pooled["per_seed"].values())
+    assert [r["success_rate"] for r in runs] == [runs[0]["success_rate"]] * 2
+    assert [r["spl"] for r in runs] == [runs[0]["spl"]] * 2
+    oracle = out["baselines"]["pooled"]["oracle"]
+    assert oracle["episodes"] == 2 and oracle["success_rate"] == 1.0
+    assert set(out["training"]) == {str(first), str(second)}
+    assert "record" in out["training"][str(first)]
+    table = (tmp_path / "seeds.md").read_text()
+    assert "| learned / open | 2 x 2 |" in table and "| oracle / pooled | 1 x 2 |" in table
+    assert table in capsys.readouterr().out
+    with pytest.raises(ValueError, match="--run"):
+        load_script("seed_benchmark").agent_of_run(tmp_path)
