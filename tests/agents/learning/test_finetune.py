@@ -87,6 +87,18 @@ def tiny_venv() -> Any:
     return DummyVecEnv([lambda: BinActions(env, 11)])
 
 
+def fresh_model(critic_encoder: str) -> tuple[Any, Any, Any]:
+    """A fresh small imitation network (torch seed 0), its tiny training env and the PPO model
+    built around it with ``critic_encoder``."""
+    torch.manual_seed(0)
+    bundle = _new_bundle(SMALL, 11, 32, {})
+    venv = tiny_venv()
+    cfg = FinetuneConfig(
+        out_dir=pathlib.Path("."), policy=pathlib.Path("unused.pt"), critic_encoder=critic_encoder
+    )
+    return bundle, venv, actor_critic(bundle, venv, cfg)
+
+
 def test_bin_actions_send_the_values_the_bins_stand_for() -> None:
     env: Any = BinActions(gym.make("StereoNav-v1", scenario="open", perception="surrogate"), 11)
     assert env.action_space == gym.spaces.MultiDiscrete([11, 11, 11])
@@ -101,13 +113,7 @@ def test_bin_actions_send_the_values_the_bins_stand_for() -> None:
 def test_ppo_starts_from_the_imitation_policy_and_gives_its_actor_back(
     critic_encoder: str,
 ) -> None:
-    torch.manual_seed(0)
-    bundle = _new_bundle(SMALL, 11, 32, {})
-    venv = tiny_venv()
-    cfg = FinetuneConfig(
-        out_dir=pathlib.Path("."), policy=pathlib.Path("unused.pt"), critic_encoder=critic_encoder
-    )
-    model = actor_critic(bundle, venv, cfg)
+    bundle, venv, model = fresh_model(critic_encoder)
     rng = np.random.default_rng(0)
     maps = torch.from_numpy(rng.integers(0, 256, (5, len(CHANNELS), 16, 16), dtype=np.uint8))
     states = torch.from_numpy(rng.uniform(-1, 1, (5, len(STATE_FEATURES))).astype(np.float32))
@@ -177,13 +183,8 @@ def test_the_rollout_forward_gives_what_stable_baselines3s_forward_gives(
 ) -> None:
     from stable_baselines3.common.policies import ActorCriticPolicy
 
-    torch.manual_seed(0)
-    bundle = _new_bundle(SMALL, 11, 32, {})
-    venv = tiny_venv()
-    cfg = FinetuneConfig(
-        out_dir=pathlib.Path("."), policy=pathlib.Path("unused.pt"), critic_encoder=critic_encoder
-    )
-    policy = actor_critic(bundle, venv, cfg).policy
+    _, venv, model = fresh_model(critic_encoder)
+    policy = model.policy
     policy.set_training_mode(False)
     assert type(policy).forward is not ActorCriticPolicy.forward
     rng = np.random.default_rng(0)
