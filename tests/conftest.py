@@ -1,4 +1,5 @@
-"""Fixtures shared by the whole suite: default rig, scene and renderer, and a small map."""
+"""Fixtures shared by the whole suite: default rig, scene and renderer, a small map and a tiny
+imitation run."""
 
 from __future__ import annotations
 
@@ -82,3 +83,27 @@ def small_map(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
     path = tmp_path_factory.mktemp("maps") / "small_box.json"
     path.write_text(json.dumps(SMALL_MAP))
     return path
+
+
+@pytest.fixture(scope="session")
+def imitation_run(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
+    """A ``train.py --teacher planner`` output folder of a tiny imitation policy (120 planner
+    steps on ``open``, a 16 px map at 0.5 m, width 32): ``policy.pt``, ``record.json``, ..."""
+    from agents.learning.egomap import EgoMapConfig
+    from agents.learning.imitation import ImitationConfig, train_imitation
+
+    out = tmp_path_factory.mktemp("imitation")
+    cfg = ImitationConfig(
+        out_dir=out,
+        n_envs=1,
+        demo_steps=120,
+        rounds=0,
+        epochs=1,
+        width=32,
+        families=("open",),
+        weights=(1.0,),
+        egomap=EgoMapConfig(size_px=16, cell_m=0.5),
+        progress=False,
+    )
+    train_imitation(cfg)
+    return out

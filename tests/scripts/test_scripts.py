@@ -256,31 +256,14 @@ def test_collision_report_with_memory_measures_what_the_fused_memory_held(
     assert "first contacts 1: the fused memory held 0 within 0.1 m just before, not 1" in printed
 
 
-@pytest.fixture(scope="module")
-def tiny_run(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
-    """A train.py --teacher output folder of a tiny imitation policy (60 planner steps)."""
-    from agents.learning.egomap import EgoMapConfig
-    from agents.learning.imitation import ImitationConfig, train_imitation
-
-    run = tmp_path_factory.mktemp("tiny") / "run"
-    train_imitation(
-        ImitationConfig(
-            out_dir=run, n_envs=1, demo_steps=60, rounds=0, epochs=1, width=16,
-            families=("open",), weights=(1.0,), egomap=EgoMapConfig(size_px=16, cell_m=0.5),
-            progress=False,
-        )
-    )  # fmt: skip
-    return run
-
-
 def test_seed_benchmark_scores_each_run_and_baseline_on_the_same_episodes(
-    tmp_path: pathlib.Path, tiny_run: pathlib.Path, capsys: pytest.CaptureFixture[str]
+    tmp_path: pathlib.Path, imitation_run: pathlib.Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     import shutil
 
     first, second = tmp_path / "seed0", tmp_path / "seed1"
-    shutil.copytree(tiny_run, first)
-    shutil.copytree(tiny_run, second)
+    shutil.copytree(imitation_run, first)
+    shutil.copytree(imitation_run, second)
     out = load_script("seed_benchmark").main(
         [
             "--run", str(first), "--run", str(second), "--baseline", "oracle",
@@ -310,7 +293,7 @@ def test_seed_benchmark_scores_each_run_and_baseline_on_the_same_episodes(
 
 
 def test_ship_policy_copies_the_run_and_writes_its_metadata_beside_it(
-    tmp_path: pathlib.Path, tiny_run: pathlib.Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: pathlib.Path, imitation_run: pathlib.Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     import gymnasium as gym
 
@@ -320,10 +303,10 @@ def test_ship_policy_copies_the_run_and_writes_its_metadata_beside_it(
     script = load_script("ship_policy")
     target = tmp_path / "data" / "learned_policy.pt"
     monkeypatch.setattr(script, "SHIPPED_POLICY", target)
-    assert script.main([str(tiny_run)]) == target
-    assert target.read_bytes() == (tiny_run / "policy.pt").read_bytes()
+    assert script.main([str(imitation_run)]) == target
+    assert target.read_bytes() == (imitation_run / "policy.pt").read_bytes()
     meta = json.loads(target.with_suffix(".json").read_text())
-    assert meta == json.loads(json.dumps(load_policy(tiny_run / "policy.pt").meta))
+    assert meta == json.loads(json.dumps(load_policy(imitation_run / "policy.pt").meta))
     agent = make_agent(f"learned:{target}")
     env = gym.make("StereoNav-v1", scenario="open", perception="surrogate")
     obs, info = env.reset(seed=0)

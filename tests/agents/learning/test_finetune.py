@@ -34,7 +34,6 @@ from agents.learning.imitation import (
     ImitationConfig,
     _new_bundle,
     load_policy,
-    train_imitation,
     training_vector_env,
 )
 from agents.learning.seeds import _phase_starts
@@ -45,22 +44,9 @@ SMALL = EgoMapConfig(size_px=16, cell_m=0.5)
 
 
 @pytest.fixture(scope="module")
-def imitation_policy(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
-    """A tiny imitation policy (a few hundred planner steps on a small map)."""
-    out = tmp_path_factory.mktemp("imitation")
-    cfg = ImitationConfig(
-        out_dir=out,
-        n_envs=1,
-        demo_steps=120,
-        rounds=0,
-        epochs=1,
-        width=32,
-        families=("open",),
-        weights=(1.0,),
-        egomap=SMALL,
-        progress=False,
-    )
-    return train_imitation(cfg).policy_path
+def imitation_policy(imitation_run: pathlib.Path) -> pathlib.Path:
+    """A tiny imitation policy (the suite's ``imitation_run``: 120 planner steps on a small map)."""
+    return imitation_run / "policy.pt"
 
 
 def tiny_run(policy: pathlib.Path, out: pathlib.Path, **overrides: Any) -> FinetuneConfig:
